@@ -1,0 +1,30 @@
+# Entry points for people and CI. Everything goes through scripts/setup.sh (Debian packages) and CMake.
+BUILD ?= build
+JOBS ?= 2
+CMAKE_FLAGS ?=
+
+.PHONY: setup build demo test test-sanitize bench clean
+
+setup:
+	bash scripts/setup.sh
+
+build: setup
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
+	cmake --build $(BUILD) -j$(JOBS)
+
+# The main job. Until the design service exists this is the built-in contact demo: a sleeve on a flexing limb.
+demo: build
+	$(BUILD)/client/kgd simulate --builtin sleeve_on_limb
+
+test: build
+	cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
+
+# The same suite built with AddressSanitizer and UndefinedBehaviorSanitizer.
+test-sanitize:
+	$(MAKE) test BUILD=build-sanitize CMAKE_FLAGS="-DKGD_SANITIZE=ON -DKGD_BUILD_BENCHMARKS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo"
+
+bench: build
+	bash bench/run.sh $(BUILD)
+
+clean:
+	rm -rf build build-sanitize

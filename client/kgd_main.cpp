@@ -1,0 +1,18 @@
+// kgd: the kinesthetic garment designer's command-line interface.
+#include <CLI/CLI.hpp>
+#include <iostream>
+
+#include "client/simulate_command.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"kgd: kinesthetic garment designer"};
+  app.require_subcommand(1);
+  int exit_code = 0;
+  kgd::cli::AddSimulateCommands(app, &exit_code);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  return exit_code;
+}

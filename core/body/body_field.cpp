@@ -1,0 +1,110 @@
+#include "core/body/body_field.h"
+
+#include <atomic>
+#include <cmath>
+#include <nanoflann.hpp>
+
+namespace kgd {
+namespace {
+std::atomic<long> g_build_count{0};
+
+struct PointCloud {
+  const Positions* points;
+  size_t kdtree_get_point_count() const { return points->rows(); }
+  double kdtree_get_pt(size_t i, size_t dim) const { return (*points)(i, dim); }
+  template <class BBox>
+  bool kdtree_get_bbox(BBox&) const { return false; }
+};
+}  // namespace
+
+struct BodyField::Index {
+  PointCloud cloud;
+  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, PointCloud>, PointCloud, 3, int>;
+  std::unique_ptr<Tree> tree;
+};
+
+BodyField::~BodyField() = default;
+
+long BodyField::BuildCount() { return g_build_count.load(); }
+
+Result<std::shared_ptr<const BodyField>> BodyField::Build(const Positions& body_vertices, const Faces& body_faces,
+                                                          const BodyFieldSettings& settings) {
+  if (Status s = ValidateMesh(body_vertices, body_faces, "body"); !s.ok()) return s;
+  if (!(settings.support_scale > 0)) return Status::Error("body field: support_scale must be > 0");
+  std::shared_ptr<BodyField> field(new BodyField());
+  field->vertices_ = body_vertices;
+  field->normals_ = AreaWeightedVertexNormals(body_vertices, body_faces);
+  const Eigen::VectorXd ring = OneRingMeanEdgeLength(body_vertices, body_faces);
+  field->h2_.resize(ring.size());
+  double sum_h = 0;
+  int used = 0;
+  for (Eigen::Index k = 0; k < ring.size(); ++k) {
+    const double h = settings.support_scale * ring[k];
+    field->h2_[k] = h * h;  // isolated vertices (no faces) get h = 0: they never contribute
+    field->max_h_ = std::max(field->max_h_, h);
+    if (h > 0) { sum_h += h; ++used; }
+  }
+  field->mean_h_ = used ? sum_h / used : 0;
+  field->margin_ = settings.cache_margin_m > 0 ? settings.cache_margin_m : 0.5 * field->mean_h_;
+  field->index_ = std::make_unique<Index>();
+  field->index_->cloud.points = &field->vertices_;
+  field->index_->tree = std::make_unique<Index::Tree>(3, field->index_->cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+  field->index_->tree->buildIndex();
+  ++g_build_count;
+  return std::shared_ptr<const BodyField>(std::move(field));
+}
+
+void BodyField::RefreshCache(const Eigen::Vector3d& x, NeighborCache* cache) const {
+  const double r = max_h_ + margin_;
+  std::vector<std::pair<int, double>> found;
+  nanoflann::SearchParams params;
+  params.sorted = false;
+  index_->tree->radiusSearch(x.data(), r * r, found, params);  // nanoflann's L2 radius is squared
+  cache->candidates.clear();
+  for (const auto& [k, d2] : found) {
+    const double reach = std::sqrt(h2_[k]) + margin_;
+    if (d2 < reach * reach) cache->candidates.push_back(k);
+  }
+  cache->center = x;
+  ++cache->rebuilds;
+}
+
+FieldSample BodyField::Evaluate(const Eigen::Vector3d& x, NeighborCache* cache, bool want_grad, bool want_hess) const {
+  // The cache is valid while x stays within the margin of where it was built (NaN center: never built).
+  if (!((x - cache->center).squaredNorm() <= margin_ * margin_)) RefreshCache(x, cache);
+  double D = 0, N = 0;
+  Eigen::Vector3d dD = Eigen::Vector3d::Zero(), dN = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d hD = Eigen::Matrix3d::Zero(), hN = Eigen::Matrix3d::Zero();
+  for (int k : cache->candidates) {
+    const Eigen::Vector3d d = x - vertices_.row(k).transpose();
+    const double q = d.squaredNorm() / h2_[k];
+    if (q >= 1.0) continue;
+    const double t = 1.0 - q, t2 = t * t, t3 = t2 * t;
+    const double phi = t2 * t2;
+    const Eigen::Vector3d n = normals_.row(k).transpose();
+    const double g = n.dot(d);
+    D += phi;
+    N += phi * g;
+    if (!want_grad && !want_hess) continue;
+    const Eigen::Vector3d dphi = (-8.0 * t3 / h2_[k]) * d;
+    dD += dphi;
+    dN += dphi * g + phi * n;
+    if (want_hess) {
+      const Eigen::Matrix3d hphi =
+          (48.0 * t2 / (h2_[k] * h2_[k])) * d * d.transpose() - (8.0 * t3 / h2_[k]) * Eigen::Matrix3d::Identity();
+      hD += hphi;
+      hN += hphi * g + dphi * n.transpose() + n * dphi.transpose();
+    }
+  }
+  FieldSample s;
+  // A vanishing kernel sum is where Phi stops being defined; below 1e-300 a division would overflow.
+  if (!(D > 1e-300)) return s;
+  s.supported = true;
+  s.phi_m = N / D;
+  if (want_grad || want_hess) s.grad = (dN - s.phi_m * dD) / D;
+  if (want_hess)
+    s.hess = (hN - s.grad * dD.transpose() - dD * s.grad.transpose() - s.phi_m * hD) / D;
+  return s;
+}
+
+}  // namespace kgd

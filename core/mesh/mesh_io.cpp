@@ -1,0 +1,371 @@
+#include "core/mesh/mesh_io.h"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+namespace kgd {
+namespace {
+
+std::string Lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+bool EndsWith(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::string Where(const std::string& path, size_t line) { return path + ":" + std::to_string(line) + ": "; }
+
+bool ParseDouble(const std::string& token, double* out) {
+  const char* begin = token.data();
+  const char* end = token.data() + token.size();
+  auto [ptr, ec] = std::from_chars(begin, end, *out);
+  return ec == std::errc() && ptr == end;
+}
+
+bool ParseInt(const std::string& token, long* out) {
+  const char* begin = token.data();
+  const char* end = token.data() + token.size();
+  if (begin != end && *begin == '+') ++begin;
+  auto [ptr, ec] = std::from_chars(begin, end, *out);
+  return ec == std::errc() && ptr == end;
+}
+
+Result<TriMesh> ReadObj(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return Status::Error(path + ": cannot open file");
+  std::vector<Eigen::Vector3d> verts;
+  std::vector<Eigen::Vector3i> tris;
+  std::string line;
+  size_t line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream ls(line);
+    std::string tag;
+    if (!(ls >> tag) || tag[0] == '#') continue;
+    if (tag == "v") {
+      std::string t[3];
+      Eigen::Vector3d p;
+      for (int k = 0; k < 3; ++k) {
+        if (!(ls >> t[k]) || !ParseDouble(t[k], &p[k]))
+          return Status::Error(Where(path, line_no) + "vertex " + std::to_string(verts.size()) +
+                               ": expected three numbers, got '" + line + "'");
+        if (!std::isfinite(p[k]))
+          return Status::Error(Where(path, line_no) + "vertex " + std::to_string(verts.size()) +
+                               " has a non-finite coordinate '" + t[k] + "'");
+      }
+      verts.push_back(p);
+    } else if (tag == "f") {
+      std::vector<int> corners;
+      std::string tok;
+      while (ls >> tok) {
+        const std::string first = tok.substr(0, tok.find('/'));
+        long idx = 0;
+        if (!ParseInt(first, &idx) || idx == 0)
+          return Status::Error(Where(path, line_no) + "face " + std::to_string(tris.size()) +
+                               ": bad vertex index '" + tok + "'");
+        // OBJ indices are 1-based; negative ones count back from the last vertex read so far.
+        const long zero_based = idx > 0 ? idx - 1 : static_cast<long>(verts.size()) + idx;
+        if (zero_based < 0 || zero_based > INT32_MAX)
+          return Status::Error(Where(path, line_no) + "face " + std::to_string(tris.size()) +
+                               ": vertex index " + std::to_string(idx) + " out of range");
+        corners.push_back(static_cast<int>(zero_based));
+      }
+      if (corners.size() < 3)
+        return Status::Error(Where(path, line_no) + "face " + std::to_string(tris.size()) + " has " +
+                             std::to_string(corners.size()) + " corners, need at least 3");
+      for (size_t k = 1; k + 1 < corners.size(); ++k) tris.emplace_back(corners[0], corners[k], corners[k + 1]);
+    }
+    // Other tags (vn, vt, o, g, s, usemtl, mtllib, l) carry nothing the simulator uses.
+  }
+  TriMesh mesh;
+  mesh.vertices.resize(verts.size(), 3);
+  for (size_t i = 0; i < verts.size(); ++i) mesh.vertices.row(i) = verts[i].transpose();
+  mesh.faces.resize(tris.size(), 3);
+  for (size_t i = 0; i < tris.size(); ++i) mesh.faces.row(i) = tris[i].transpose();
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (mesh.faces(f, k) >= mesh.vertices.rows())
+        return Status::Error(path + ": face " + std::to_string(f) + " refers to vertex " +
+                             std::to_string(mesh.faces(f, k) + 1) + " (1-based) but the file has " +
+                             std::to_string(mesh.vertices.rows()) + " vertices");
+  return mesh;
+}
+
+// --- PLY ---
+
+enum class PlyType { kChar, kUChar, kShort, kUShort, kInt, kUInt, kFloat, kDouble, kInvalid };
+
+PlyType ParsePlyType(const std::string& s) {
+  if (s == "char" || s == "int8") return PlyType::kChar;
+  if (s == "uchar" || s == "uint8") return PlyType::kUChar;
+  if (s == "short" || s == "int16") return PlyType::kShort;
+  if (s == "ushort" || s == "uint16") return PlyType::kUShort;
+  if (s == "int" || s == "int32") return PlyType::kInt;
+  if (s == "uint" || s == "uint32") return PlyType::kUInt;
+  if (s == "float" || s == "float32") return PlyType::kFloat;
+  if (s == "double" || s == "float64") return PlyType::kDouble;
+  return PlyType::kInvalid;
+}
+
+int PlyTypeSize(PlyType t) {
+  switch (t) {
+    case PlyType::kChar: case PlyType::kUChar: return 1;
+    case PlyType::kShort: case PlyType::kUShort: return 2;
+    case PlyType::kInt: case PlyType::kUInt: case PlyType::kFloat: return 4;
+    case PlyType::kDouble: return 8;
+    default: return 0;
+  }
+}
+
+struct PlyProperty {
+  std::string name;
+  PlyType type = PlyType::kInvalid;
+  bool is_list = false;
+  PlyType count_type = PlyType::kInvalid;
+};
+
+struct PlyElement {
+  std::string name;
+  long count = 0;
+  std::vector<PlyProperty> props;
+};
+
+// Reads one binary value of the given type; returns false at end of data.
+bool ReadBinary(std::istream& in, PlyType t, double* out) {
+  unsigned char buf[8];
+  const int n = PlyTypeSize(t);
+  if (!in.read(reinterpret_cast<char*>(buf), n)) return false;
+  switch (t) {
+    case PlyType::kChar: *out = static_cast<int8_t>(buf[0]); break;
+    case PlyType::kUChar: *out = buf[0]; break;
+    case PlyType::kShort: { int16_t v; std::memcpy(&v, buf, 2); *out = v; break; }
+    case PlyType::kUShort: { uint16_t v; std::memcpy(&v, buf, 2); *out = v; break; }
+    case PlyType::kInt: { int32_t v; std::memcpy(&v, buf, 4); *out = v; break; }
+    case PlyType::kUInt: { uint32_t v; std::memcpy(&v, buf, 4); *out = v; break; }
+    case PlyType::kFloat: { float v; std::memcpy(&v, buf, 4); *out = v; break; }
+    case PlyType::kDouble: { double v; std::memcpy(&v, buf, 8); *out = v; break; }
+    default: return false;
+  }
+  return true;
+}
+
+Result<TriMesh> ReadPly(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Status::Error(path + ": cannot open file");
+  std::string line;
+  std::getline(in, line);
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  if (line != "ply") return Status::Error(path + ":1: not a PLY file (first line is not 'ply')");
+  bool binary = false;
+  std::vector<PlyElement> elements;
+  size_t line_no = 1;
+  bool header_done = false;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream ls(line);
+    std::string kw;
+    ls >> kw;
+    if (kw == "format") {
+      std::string fmt;
+      ls >> fmt;
+      if (fmt == "ascii") binary = false;
+      else if (fmt == "binary_little_endian") binary = true;
+      else return Status::Error(Where(path, line_no) + "unsupported PLY format '" + fmt + "'");
+    } else if (kw == "element") {
+      PlyElement e;
+      ls >> e.name >> e.count;
+      if (!ls || e.count < 0) return Status::Error(Where(path, line_no) + "bad element line '" + line + "'");
+      elements.push_back(e);
+    } else if (kw == "property") {
+      if (elements.empty()) return Status::Error(Where(path, line_no) + "property before any element");
+      PlyProperty p;
+      std::string t;
+      ls >> t;
+      if (t == "list") {
+        std::string ct, it;
+        ls >> ct >> it >> p.name;
+        p.is_list = true;
+        p.count_type = ParsePlyType(ct);
+        p.type = ParsePlyType(it);
+      } else {
+        p.type = ParsePlyType(t);
+        ls >> p.name;
+      }
+      if (p.type == PlyType::kInvalid || (p.is_list && p.count_type == PlyType::kInvalid))
+        return Status::Error(Where(path, line_no) + "unknown property type in '" + line + "'");
+      elements.back().props.push_back(p);
+    } else if (kw == "end_header") {
+      header_done = true;
+      break;
+    }
+    // comment, obj_info: ignored.
+  }
+  if (!header_done) return Status::Error(path + ": PLY header has no end_header");
+
+  TriMesh mesh;
+  std::vector<Eigen::Vector3i> tris;
+  bool have_vertices = false;
+  for (const PlyElement& e : elements) {
+    const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
+    int ix = -1, iy = -1, iz = -1, iface = -1;
+    for (size_t k = 0; k < e.props.size(); ++k) {
+      const auto& n = e.props[k].name;
+      if (n == "x") ix = k; else if (n == "y") iy = k; else if (n == "z") iz = k;
+      else if (e.props[k].is_list && (n == "vertex_indices" || n == "vertex_index")) iface = k;
+    }
+    if (is_vertex && (ix < 0 || iy < 0 || iz < 0))
+      return Status::Error(path + ": PLY vertex element lacks x, y or z");
+    if (is_face && iface < 0) return Status::Error(path + ": PLY face element lacks a vertex_indices list");
+    if (is_vertex) { mesh.vertices.resize(e.count, 3); have_vertices = true; }
+    for (long i = 0; i < e.count; ++i) {
+      std::istringstream ls;
+      if (!binary) {
+        if (!std::getline(in, line))
+          return Status::Error(path + ": unexpected end of file in " + e.name + " " + std::to_string(i));
+        ls.str(line);
+      }
+      auto read_value = [&](PlyType t, double* v) -> bool {
+        if (binary) return ReadBinary(in, t, v);
+        std::string tok;
+        return static_cast<bool>(ls >> tok) && ParseDouble(tok, v);
+      };
+      for (size_t k = 0; k < e.props.size(); ++k) {
+        const PlyProperty& p = e.props[k];
+        if (!p.is_list) {
+          double v;
+          if (!read_value(p.type, &v))
+            return Status::Error(path + ": " + e.name + " " + std::to_string(i) + ": cannot read property '" +
+                                 p.name + "'");
+          if (is_vertex) {
+            if (static_cast<int>(k) == ix) mesh.vertices(i, 0) = v;
+            if (static_cast<int>(k) == iy) mesh.vertices(i, 1) = v;
+            if (static_cast<int>(k) == iz) mesh.vertices(i, 2) = v;
+            if ((static_cast<int>(k) == ix || static_cast<int>(k) == iy || static_cast<int>(k) == iz) &&
+                !std::isfinite(v))
+              return Status::Error(path + ": vertex " + std::to_string(i) + " has a non-finite coordinate");
+          }
+          continue;
+        }
+        double count_d;
+        if (!read_value(p.count_type, &count_d) || count_d < 0 || count_d > 1e6)
+          return Status::Error(path + ": " + e.name + " " + std::to_string(i) + ": bad list length");
+        const int count = static_cast<int>(count_d);
+        std::vector<int> idx(count);
+        for (int c = 0; c < count; ++c) {
+          double v;
+          if (!read_value(p.type, &v))
+            return Status::Error(path + ": " + e.name + " " + std::to_string(i) + ": cannot read list entry");
+          idx[c] = static_cast<int>(v);
+        }
+        if (is_face && static_cast<int>(k) == iface) {
+          if (count < 3)
+            return Status::Error(path + ": face " + std::to_string(i) + " has " + std::to_string(count) +
+                                 " corners, need at least 3");
+          for (int c = 1; c + 1 < count; ++c) tris.emplace_back(idx[0], idx[c], idx[c + 1]);
+        }
+      }
+    }
+  }
+  if (!have_vertices) return Status::Error(path + ": PLY file has no vertex element");
+  mesh.faces.resize(tris.size(), 3);
+  for (size_t i = 0; i < tris.size(); ++i) {
+    for (int k = 0; k < 3; ++k)
+      if (tris[i][k] < 0 || tris[i][k] >= mesh.vertices.rows())
+        return Status::Error(path + ": face " + std::to_string(i) + " refers to vertex " +
+                             std::to_string(tris[i][k]) + ", out of range [0, " +
+                             std::to_string(mesh.vertices.rows()) + ")");
+    mesh.faces.row(i) = tris[i].transpose();
+  }
+  return mesh;
+}
+
+}  // namespace
+
+Result<TriMesh> ReadMesh(const std::string& path) {
+  const std::string lower = Lower(path);
+  if (EndsWith(lower, ".obj")) return ReadObj(path);
+  if (EndsWith(lower, ".ply")) return ReadPly(path);
+  return Status::Error(path + ": unknown mesh format (expected .obj or .ply)");
+}
+
+Status WritePly(const std::string& path, const Positions& x, const Faces& faces,
+                const std::vector<FaceProperty>& face_properties) {
+  for (const auto& p : face_properties)
+    if (p.values.size() != faces.rows())
+      return Status::Error(path + ": face property '" + p.name + "' has " + std::to_string(p.values.size()) +
+                           " values for " + std::to_string(faces.rows()) + " faces");
+  std::ofstream out(path, std::ios::binary);
+  if (!out) return Status::Error(path + ": cannot open for writing");
+  out << "ply\nformat binary_little_endian 1.0\ncomment kgd output, units: metres\n";
+  out << "element vertex " << x.rows() << "\nproperty double x\nproperty double y\nproperty double z\n";
+  out << "element face " << faces.rows() << "\nproperty list uchar int vertex_indices\n";
+  for (const auto& p : face_properties) out << "property " << (p.as_uchar ? "uchar " : "double ") << p.name << "\n";
+  out << "end_header\n";
+  for (Eigen::Index v = 0; v < x.rows(); ++v)
+    for (int k = 0; k < 3; ++k) {
+      const double d = x(v, k);
+      out.write(reinterpret_cast<const char*>(&d), 8);
+    }
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    const unsigned char three = 3;
+    out.write(reinterpret_cast<const char*>(&three), 1);
+    for (int k = 0; k < 3; ++k) {
+      const int32_t i = faces(f, k);
+      out.write(reinterpret_cast<const char*>(&i), 4);
+    }
+    for (const auto& p : face_properties) {
+      if (p.as_uchar) {
+        const unsigned char b = static_cast<unsigned char>(std::clamp(p.values[f], 0.0, 255.0));
+        out.write(reinterpret_cast<const char*>(&b), 1);
+      } else {
+        const double d = p.values[f];
+        out.write(reinterpret_cast<const char*>(&d), 8);
+      }
+    }
+  }
+  if (!out) return Status::Error(path + ": write failed");
+  return Status::Ok();
+}
+
+Status WriteObj(const std::string& path, const Positions& x, const Faces& faces) {
+  std::ofstream out(path);
+  if (!out) return Status::Error(path + ": cannot open for writing");
+  out.precision(9);
+  for (Eigen::Index v = 0; v < x.rows(); ++v) out << "v " << x(v, 0) << ' ' << x(v, 1) << ' ' << x(v, 2) << '\n';
+  for (Eigen::Index f = 0; f < faces.rows(); ++f)
+    out << "f " << faces(f, 0) + 1 << ' ' << faces(f, 1) + 1 << ' ' << faces(f, 2) + 1 << '\n';
+  if (!out) return Status::Error(path + ": write failed");
+  return Status::Ok();
+}
+
+Result<std::vector<int>> ReadIndexList(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return Status::Error(path + ": cannot open file");
+  std::vector<int> out;
+  std::string line;
+  size_t line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const auto first = line.find_first_not_of(" \t");
+    if (first == std::string::npos || line[first] == '#') continue;
+    const auto last = line.find_last_not_of(" \t");
+    long v;
+    if (!ParseInt(line.substr(first, last - first + 1), &v) || v < INT32_MIN || v > INT32_MAX)
+      return Status::Error(Where(path, line_no) + "expected one integer, got '" + line + "'");
+    out.push_back(static_cast<int>(v));
+  }
+  return out;
+}
+
+}  // namespace kgd

@@ -1,0 +1,39 @@
+// Reading and writing triangle meshes and index lists. Pure I/O: no validation of geometry beyond
+// what the format needs (use ValidateMesh for that).
+//
+// Formats: OBJ (`v x y z` and `f a b c` lines, 1-based or negative indices, `a/b/c` corners accepted,
+// polygons fan-triangulated) and PLY (ascii or binary_little_endian; vertex x, y, z and a face list).
+// Errors name the file and the line (OBJ, text) or element (PLY).
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/mesh/trimesh.h"
+#include "core/util/status.h"
+
+namespace kgd {
+
+// Reads an .obj or .ply file (chosen by extension, case-insensitive).
+Result<TriMesh> ReadMesh(const std::string& path);
+
+// Per-face scalar attributes written after the vertex indices of each face.
+struct FaceProperty {
+  std::string name;
+  Eigen::VectorXd values;  // one per face
+  bool as_uchar = false;   // store as an 8-bit integer (e.g. a design bit) instead of a double
+};
+
+// Writes binary little-endian PLY with double vertex coordinates and optional per-face properties.
+Status WritePly(const std::string& path, const Positions& x, const Faces& faces,
+                const std::vector<FaceProperty>& face_properties = {});
+
+// Writes an OBJ file (vertices with 9 significant digits, 1-based faces).
+Status WriteObj(const std::string& path, const Positions& x, const Faces& faces);
+
+// Reads a text file of integers, one per line (blank lines and lines starting with '#' ignored).
+// Errors name the file and the line.
+Result<std::vector<int>> ReadIndexList(const std::string& path);
+
+}  // namespace kgd

@@ -1,0 +1,46 @@
+// Triangle meshes: connectivity (Faces) kept apart from geometry (Positions).
+//
+// Positions are n x 3, row-major, in metres, so that `positions.data()` is the flat degree-of-freedom
+// vector x0 y0 z0 x1 y1 z1 ... used by the simulator. Faces are m x 3 vertex indices, counter-clockwise
+// seen from the side the normal points to.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/util/status.h"
+
+namespace kgd {
+
+using Positions = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+using Faces = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
+
+struct TriMesh {
+  Positions vertices;
+  Faces faces;
+};
+
+// Area of every face (m^2).
+Eigen::VectorXd FaceAreas(const Positions& x, const Faces& faces);
+
+// Mean length of all face edges (m); interior edges count twice, which is what averages over faces want.
+double MeanEdgeLength(const Positions& x, const Faces& faces);
+
+// Unit vertex normals: the area-weighted sum of incident face normals, normalized (zero for isolated vertices).
+Positions AreaWeightedVertexNormals(const Positions& x, const Faces& faces);
+
+// For every vertex, the mean length of the edges of its one-ring (m); zero for isolated vertices.
+Eigen::VectorXd OneRingMeanEdgeLength(const Positions& x, const Faces& faces);
+
+// Centroid of each listed face.
+Positions FaceCentroids(const Positions& x, const Faces& faces, const std::vector<int>& face_ids);
+
+// Checks what the simulator relies on: finite coordinates, indices in range, no zero-area (or
+// collinear) faces. `name` (a file name) prefixes the message, which names the vertex or face and value.
+Status ValidateMesh(const Positions& x, const Faces& faces, const std::string& name);
+
+// Checks that a list of face indices is in range and free of duplicates; `what` names the list.
+Status ValidateFaceList(const std::vector<int>& face_ids, int num_faces, const std::string& what);
+
+}  // namespace kgd

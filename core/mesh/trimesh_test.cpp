@@ -1,0 +1,68 @@
+#include "core/mesh/trimesh.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <map>
+
+#include "core/scene/shapes.h"
+
+namespace kgd {
+namespace {
+
+TEST(TriMesh, SheetAreasSumToTheRectangle) {
+  const TriMesh m = RectangleSheet(0.10, 0.14, 0.0025);
+  EXPECT_EQ(m.vertices.rows(), 41 * 57);
+  EXPECT_EQ(m.faces.rows(), 4480);
+  EXPECT_NEAR(FaceAreas(m.vertices, m.faces).sum(), 0.014, 1e-12);
+  EXPECT_NEAR(MeanEdgeLength(m.vertices, m.faces), 0.0025 * (2 + std::sqrt(2.0)) / 3, 1e-12);
+  EXPECT_TRUE(ValidateMesh(m.vertices, m.faces, "sheet").ok());
+}
+
+TEST(TriMesh, LimbIsClosedAndOutwardOriented) {
+  LimbShape s;
+  const TriMesh m = LimbRest(s);
+  ASSERT_TRUE(ValidateMesh(m.vertices, m.faces, "limb").ok());
+  // Closed: V - E + F = 2 and every edge used twice; outward: positive signed volume.
+  std::map<std::pair<int, int>, int> edges;
+  double volume = 0;
+  for (Eigen::Index f = 0; f < m.faces.rows(); ++f) {
+    for (int k = 0; k < 3; ++k) {
+      int a = m.faces(f, k), b = m.faces(f, (k + 1) % 3);
+      edges[{std::min(a, b), std::max(a, b)}]++;
+    }
+    const Eigen::Vector3d a = m.vertices.row(m.faces(f, 0)), b = m.vertices.row(m.faces(f, 1)), c = m.vertices.row(m.faces(f, 2));
+    volume += a.dot(b.cross(c)) / 6.0;
+  }
+  for (const auto& [e, count] : edges) ASSERT_EQ(count, 2);
+  EXPECT_EQ(m.vertices.rows() - static_cast<long>(edges.size()) + m.faces.rows(), 2);
+  EXPECT_GT(volume, 0);
+  // Normals on the cylinder point away from the axis.
+  const Positions n = AreaWeightedVertexNormals(m.vertices, m.faces);
+  for (Eigen::Index v = 0; v < m.vertices.rows(); ++v) {
+    const Eigen::Vector3d radial(m.vertices(v, 0), 0, m.vertices(v, 2));
+    if (radial.norm() > 0.03 && std::abs(m.vertices(v, 1)) < 0.15) {
+      ASSERT_GT(n.row(v).dot(radial), 0) << v;
+    }
+  }
+}
+
+TEST(TriMesh, ValidateMeshNamesTheElement) {
+  Positions x(4, 3);
+  x << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, std::nan("");
+  Faces f(2, 3);
+  f << 0, 1, 2, 0, 2, 1;
+  EXPECT_NE(ValidateMesh(x, f, "a.obj").message().find("a.obj: vertex 3 has a non-finite coordinate"), std::string::npos);
+  x(3, 2) = 0;
+  f(1, 2) = 9;
+  EXPECT_NE(ValidateMesh(x, f, "a.obj").message().find("face 1 refers to vertex 9"), std::string::npos);
+  f(1, 2) = 3;
+  x.row(3) << 0.5, 0.5, 0;  // collinear with 0 and 2? no: (0,0),(0,1),(0.5,0.5) has area; make it collinear:
+  x.row(3) << 0, 2, 0;
+  EXPECT_NE(ValidateMesh(x, f, "a.obj").message().find("face 1 has zero area"), std::string::npos);
+  EXPECT_NE(ValidateFaceList({0, 5}, 2, "att").message().find("entry 1 is face 5"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace kgd

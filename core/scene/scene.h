@@ -1,0 +1,87 @@
+// Scenes: everything one simulation needs, as a plain description (SceneSpec), loaded from and
+// exported to a JSON scene file with meshes and index lists beside it.
+//
+// Scene file (all keys optional unless marked; unknown keys are errors; units SI):
+// {
+//   "name": "pull_test_line",
+//   "garment": {
+//     "rest": "sample.obj",              // required: OBJ or PLY, path relative to the scene file
+//     "initial": "sample_deformed.obj",  // start positions (deformed pose); default: the rest mesh
+//     "design": "all_cloth" | "all_reinforced" | {"reinforced_faces": "line.txt" | [0, 1, ...]}
+//   },
+//   "materials": {"lame": "solid3d" | "plane_stress",
+//                 "cloth": {"youngs_modulus_Pa": 5e5, "poisson_ratio": 0.33, "thickness_m": 2.7e-4},
+//                 "reinforced": {...}},
+//   "effects": {"membrane": true, "relaxation": "exact" | "authors" | "none",
+//               "contact": "none" | "unilateral" | "bilateral", "attachments": false, "clamps": false},
+//   "body": {"mesh": "body_deformed.obj", "support_scale": 2.0},    // read only when contact is on
+//   "contact": {"stiffness_N_per_m": 5000},
+//   "attachments": {"faces": "attach.txt" | [..], "stiffness_N_per_m": 3000},
+//   "clamps": [{"name": "moving", "vertices": "moving.txt" | [..] | {"box_min": [x,y,z], "box_max": [x,y,z]},
+//               "axes": "xyz", "displacement_m": [0, 0, 0.01]}],
+//   "solver": {"method": "newton" | "lbfgs", "grad_tol": 1e-7, "max_iterations": 200,
+//              "reuse_factorization": true, "lbfgs_history": 20}
+// }
+// Attachment anchors are the centroids of the attached faces in the initial positions (the body surface
+// in the current pose). Clamp boxes select vertices by rest position.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/mesh/trimesh.h"
+#include "core/sim/garment_system.h"
+#include "core/sim/simulator.h"
+#include "core/util/status.h"
+
+namespace kgd {
+
+struct SceneSpec {
+  std::string name;
+  TriMesh garment;                 // rest positions and connectivity
+  Positions initial;               // start positions (same rows as garment.vertices)
+  std::vector<uint8_t> design;     // per face
+  Material cloth = ClothMaterial();
+  Material reinforced = ReinforcedMaterial();
+  LameConversion lame = LameConversion::kSolid3D;
+  Effects effects;
+  std::optional<TriMesh> body;     // body surface in the simulated pose
+  double body_support_scale = 2.0;
+  double contact_stiffness_N_per_m = kDefaultContactStiffness;
+  std::vector<int> attachment_faces;
+  double attachment_stiffness_N_per_m = kDefaultAttachmentStiffness;
+  std::vector<Clamp> clamps;
+  SolverSettings solver;
+};
+
+// Reads and validates a scene file; errors name the file, the key or the element.
+Result<SceneSpec> LoadScene(const std::string& path);
+
+// Writes `spec` as DIR/scene.json plus meshes (OBJ) and index lists; creates DIR if needed.
+Status ExportScene(const SceneSpec& spec, const std::string& dir);
+
+// The simulator's model: builds the body field only when the scene's effects use contact.
+Result<GarmentModel> BuildGarmentModel(const SceneSpec& spec);
+
+// Scenes built into the program (no files needed).
+std::vector<std::string> BuiltinSceneNames();
+Result<SceneSpec> BuiltinScene(const std::string& name);
+
+// Pieces of the built-in scenes, for tests and benchmarks.
+// Pull test of the paper's 2D validation: 10 x 14 cm, 2.5 mm grid, 2 cm clamp strips, the far one moved
+// by `pull_m` along +z. design: "all_cloth", "all_reinforced", "line" (4 cm centred band) or "x".
+Result<SceneSpec> PullTestScene(const std::string& design, double pull_m = 0.01);
+// Sleeve on a flexing limb: garment = the limb surface within `sleeve_halflength_m` of the joint, its rest
+// shape shrunk by `tightness` (a tight sleeve is in tension on the body), attachment bands at both ends.
+struct SleeveOptions {
+  int around = 32;
+  double flex_angle_rad = 0.8;
+  double sleeve_halflength_m = 0.12;
+  double tightness = 0.9;
+  ContactModel contact = ContactModel::kUnilateral;
+  bool reinforced = false;
+};
+SceneSpec SleeveOnLimbScene(const SleeveOptions& options);
+
+}  // namespace kgd

@@ -1,0 +1,59 @@
+#include "core/scene/scene.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "core/scene/simulate.h"
+
+namespace kgd {
+namespace {
+
+std::string TempDir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / "kgd_scene_test" / name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir.string();
+}
+
+TEST(Scene, ExportThenLoadReproducesTheBuiltinResult) {
+  for (const std::string name : {"pull_test_x", "sleeve_on_limb"}) {
+    auto builtin = BuiltinScene(name);
+    ASSERT_TRUE(builtin.ok());
+    const std::string dir = TempDir(name);
+    ASSERT_TRUE(ExportScene(*builtin, dir).ok());
+    auto loaded = LoadScene(dir + "/scene.json");
+    ASSERT_TRUE(loaded.ok()) << loaded.message();
+    EXPECT_EQ(loaded->design, builtin->design);
+    EXPECT_EQ(loaded->attachment_faces, builtin->attachment_faces);
+    EXPECT_EQ(loaded->clamps.size(), builtin->clamps.size());
+    auto a = SimulateScene(*builtin), b = SimulateScene(*loaded);
+    ASSERT_TRUE(a.ok() && b.ok());
+    EXPECT_TRUE(a->solve.converged());
+    // OBJ stores 9 significant digits, so agreement is to that precision, not bitwise.
+    EXPECT_NEAR(a->solve.energy_J, b->solve.energy_J, 1e-6 * std::abs(a->solve.energy_J)) << name;
+  }
+}
+
+TEST(Scene, PullTestDesignsHaveTheirPaperAreas) {
+  for (const auto& [design, fraction] : std::vector<std::pair<std::string, double>>{{"line", 0.40}, {"x", 0.40}}) {
+    auto s = PullTestScene(design);
+    ASSERT_TRUE(s.ok());
+    const Eigen::VectorXd area = FaceAreas(s->garment.vertices, s->garment.faces);
+    double active = 0, reinforced = 0;
+    for (Eigen::Index f = 0; f < area.size(); ++f) {
+      double z = 0;
+      for (int k = 0; k < 3; ++k) z += s->garment.vertices(s->garment.faces(f, k), 2) / 3;
+      if (z > 0.02 && z < 0.12) {
+        active += area[f];
+        if (s->design[f]) reinforced += area[f];
+      }
+    }
+    EXPECT_NEAR(active, 0.01, 1e-12);
+    EXPECT_NEAR(reinforced / active, fraction, 0.01) << design;
+  }
+}
+
+}  // namespace
+}  // namespace kgd

@@ -1,0 +1,39 @@
+// One simulation of a scene in its given pose, and the figures a designer reads off it.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/scene/scene.h"
+#include "core/sim/simulator.h"
+
+namespace kgd {
+
+struct ClampForce {
+  std::string name;
+  Eigen::Vector3d force_N = Eigen::Vector3d::Zero();  // force the clamp exerts on the garment
+};
+
+struct SimulationResult {
+  SolveReport solve;
+  Positions positions;                  // equilibrium
+  Eigen::VectorXd face_density_Pa;      // W per face
+  Eigen::VectorXd face_energy_J;        // thickness * rest area * W per face
+  double reinforced_energy_J = 0;       // membrane energy of reinforced faces
+  double reinforced_area_m2 = 0;        // their rest area
+  double reinforced_density_J_per_m2 = 0;
+  double garment_area_m2 = 0;
+  std::vector<ClampForce> clamp_forces;
+  bool has_contact = false;
+  double min_phi_m = 0, max_phi_m = 0;  // over vertices within the body field's support
+  int inverted_faces = 0;               // faces whose normal flipped against the initial state
+};
+
+// Builds the model (and the body field only if contact is on), solves from the scene's initial
+// positions and summarizes.
+Result<SimulationResult> SimulateScene(const SceneSpec& scene);
+
+// Figures of a solved system at x (used by SimulateScene and by tests that drive GarmentSystem directly).
+SimulationResult Summarize(GarmentSystem& system, const Positions& x, const Positions& initial, const SolveReport& report);
+
+}  // namespace kgd

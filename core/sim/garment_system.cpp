@@ -1,0 +1,344 @@
+#include "core/sim/garment_system.h"
+
+#include <Eigen/SparseCholesky>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace kgd {
+namespace {
+
+Status CheckMaterial(const Material& m, const std::string& name) {
+  std::ostringstream os;
+  if (!(m.youngs_modulus_Pa > 0) || !std::isfinite(m.youngs_modulus_Pa))
+    os << name << ": youngs_modulus_Pa must be > 0, got " << m.youngs_modulus_Pa;
+  else if (!(m.poisson_ratio > -1 && m.poisson_ratio < 0.5))
+    os << name << ": poisson_ratio must be in (-1, 0.5), got " << m.poisson_ratio;
+  else if (!(m.thickness_m > 0) || !std::isfinite(m.thickness_m))
+    os << name << ": thickness_m must be > 0, got " << m.thickness_m;
+  else
+    return Status::Ok();
+  return Status::Error(os.str());
+}
+
+}  // namespace
+
+Status ValidateModel(const GarmentModel& m) {
+  if (Status s = ValidateMesh(m.rest, m.faces, "garment rest mesh"); !s.ok()) return s;
+  if (m.design.size() != static_cast<size_t>(m.faces.rows()))
+    return Status::Error("design has " + std::to_string(m.design.size()) + " values for " +
+                         std::to_string(m.faces.rows()) + " faces");
+  for (size_t f = 0; f < m.design.size(); ++f)
+    if (m.design[f] > 1)
+      return Status::Error("design value of face " + std::to_string(f) + " is " + std::to_string(m.design[f]) +
+                           " (expected 0 = cloth or 1 = reinforced)");
+  if (Status s = CheckMaterial(m.cloth, "materials.cloth"); !s.ok()) return s;
+  if (Status s = CheckMaterial(m.reinforced, "materials.reinforced"); !s.ok()) return s;
+  if (m.effects.contact != ContactModel::kNone) {
+    if (!m.body) return Status::Error("effects.contact is on but the scene has no body");
+    if (!(m.contact_stiffness_N_per_m > 0))
+      return Status::Error("contact.stiffness_N_per_m must be > 0, got " + std::to_string(m.contact_stiffness_N_per_m));
+  }
+  if (m.effects.attachments) {
+    if (Status s = ValidateFaceList(m.attachments.faces, m.faces.rows(), "attachments.faces"); !s.ok()) return s;
+    if (m.attachments.anchors.rows() != static_cast<Eigen::Index>(m.attachments.faces.size()))
+      return Status::Error("attachments: " + std::to_string(m.attachments.anchors.rows()) + " anchors for " +
+                           std::to_string(m.attachments.faces.size()) + " faces");
+    if (!(m.attachments.stiffness_N_per_m >= 0))
+      return Status::Error("attachments.stiffness_N_per_m must be >= 0");
+  }
+  if (m.effects.clamps) {
+    std::vector<char> used(m.rest.rows(), 0);
+    for (size_t c = 0; c < m.clamps.size(); ++c) {
+      const Clamp& cl = m.clamps[c];
+      const std::string name = "clamps[" + std::to_string(c) + "] (" + cl.name + ")";
+      if (cl.vertices.empty()) return Status::Error(name + ": selects no vertex");
+      for (int v : cl.vertices) {
+        if (v < 0 || v >= m.rest.rows())
+          return Status::Error(name + ": vertex " + std::to_string(v) + " out of range [0, " +
+                               std::to_string(m.rest.rows()) + ")");
+        if (used[v]) return Status::Error(name + ": vertex " + std::to_string(v) + " is already clamped");
+        used[v] = 1;
+      }
+      if (!cl.displacement_m.allFinite()) return Status::Error(name + ": displacement is not finite");
+    }
+  }
+  return Status::Ok();
+}
+
+GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : model_(std::move(model)) {
+  const int nv = num_vertices(), nf = num_faces();
+  elements_.resize(nf);
+  for (int f = 0; f < nf; ++f)
+    elements_[f] = MakeMembraneElement(model_.rest.row(model_.faces(f, 0)), model_.rest.row(model_.faces(f, 1)),
+                                       model_.rest.row(model_.faces(f, 2)));
+  const Material mats[2] = {model_.cloth, model_.reinforced};
+  for (int k = 0; k < 2; ++k) {
+    lame_[k] = LameParameters(mats[k], model_.lame);
+    thickness_[k] = mats[k].thickness_m;
+  }
+  mean_edge_ = MeanEdgeLength(model_.rest, model_.faces);
+  stiffness_scale_ = std::max(mats[0].youngs_modulus_Pa * mats[0].thickness_m, mats[1].youngs_modulus_Pa * mats[1].thickness_m);
+  force_scale_ = stiffness_scale_ * mean_edge_;
+
+  attach_index_.assign(nf, -1);
+  if (model_.effects.attachments)
+    for (size_t i = 0; i < model_.attachments.faces.size(); ++i) attach_index_[model_.attachments.faces[i]] = i;
+
+  // Degrees of freedom left free by the clamps, and the clamp targets.
+  free_index_.assign(3 * nv, 0);
+  clamp_target_ = initial;
+  if (model_.effects.clamps)
+    for (const Clamp& c : model_.clamps)
+      for (int v : c.vertices)
+        for (int k = 0; k < 3; ++k)
+          if (c.axes[k]) {
+            free_index_[3 * v + k] = -1;
+            clamp_target_(v, k) = initial(v, k) + c.displacement_m[k];
+          }
+  num_free_ = 0;
+  for (int& d : free_index_)
+    if (d == 0) d = num_free_++;
+
+  // Greedy colouring of faces so that no two faces of one colour share a vertex.
+  {
+    std::vector<std::vector<int>> vertex_colors(nv);
+    std::vector<int> color_of(nf);
+    for (int f = 0; f < nf; ++f) {
+      int c = 0;
+      for (;; ++c) {
+        bool clash = false;
+        for (int k = 0; k < 3 && !clash; ++k) {
+          const auto& vc = vertex_colors[model_.faces(f, k)];
+          clash = std::find(vc.begin(), vc.end(), c) != vc.end();
+        }
+        if (!clash) break;
+      }
+      color_of[f] = c;
+      for (int k = 0; k < 3; ++k) vertex_colors[model_.faces(f, k)].push_back(c);
+      if (c >= static_cast<int>(colors_.size())) colors_.resize(c + 1);
+      colors_[c].push_back(f);
+    }
+  }
+
+  // Sparsity: every face couples its three vertices; vertex blocks cover contact.
+  std::vector<Eigen::Triplet<double>> trips;
+  trips.reserve(static_cast<size_t>(nf) * 45 + static_cast<size_t>(nv) * 6);
+  auto add = [&](int di, int dj) {
+    const int p = free_index_[di], q = free_index_[dj];
+    if (p >= 0 && q >= 0 && p <= q) trips.emplace_back(p, q, 0.0);
+  };
+  for (int f = 0; f < nf; ++f)
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) add(3 * model_.faces(f, a) + i, 3 * model_.faces(f, b) + j);
+  for (int v = 0; v < nv; ++v)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) add(3 * v + i, 3 * v + j);
+  pattern_.resize(num_free_, num_free_);
+  pattern_.setFromTriplets(trips.begin(), trips.end());
+  pattern_.makeCompressed();
+  pattern_.coeffs().setZero();
+
+  auto value_index = [&](int di, int dj) -> int {
+    int p = free_index_[di], q = free_index_[dj];
+    if (p < 0 || q < 0) return -1;
+    if (p > q) std::swap(p, q);
+    const int* begin = pattern_.innerIndexPtr() + pattern_.outerIndexPtr()[q];
+    const int* end = pattern_.innerIndexPtr() + pattern_.outerIndexPtr()[q + 1];
+    const int* it = std::lower_bound(begin, end, p);
+    return static_cast<int>(it - pattern_.innerIndexPtr());
+  };
+  // Both (row, col) and (col, row) of a local matrix map to the same upper entry; only one of each
+  // mirrored pair (and the diagonal) is kept so that every coupling is added exactly once.
+  face_map_.assign(static_cast<size_t>(nf) * 81, -1);
+  for (int f = 0; f < nf; ++f)
+    for (int r = 0; r < 9; ++r)
+      for (int c = 0; c < 9; ++c) {
+        const int dr = 3 * model_.faces(f, r / 3) + r % 3, dc = 3 * model_.faces(f, c / 3) + c % 3;
+        const int p = free_index_[dr], q = free_index_[dc];
+        if (p < 0 || q < 0 || p > q) continue;
+        face_map_[static_cast<size_t>(f) * 81 + 9 * r + c] = value_index(dr, dc);
+      }
+  vertex_map_.assign(static_cast<size_t>(nv) * 9, -1);
+  for (int v = 0; v < nv; ++v)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        const int p = free_index_[3 * v + i], q = free_index_[3 * v + j];
+        if (p < 0 || q < 0 || p > q) continue;
+        vertex_map_[9 * v + 3 * i + j] = value_index(3 * v + i, 3 * v + j);
+      }
+
+  if (model_.effects.contact != ContactModel::kNone) caches_.resize(nv);
+  face_energy_.assign(nf, 0.0);
+  vertex_energy_.assign(nv, 0.0);
+}
+
+void GarmentSystem::SetDesign(const std::vector<uint8_t>& design) { model_.design = design; }
+
+void GarmentSystem::ApplyClamps(Positions* x) const {
+  for (int d = 0; d < 3 * num_vertices(); ++d)
+    if (free_index_[d] < 0) (*x)(d / 3, d % 3) = clamp_target_(d / 3, d % 3);
+}
+
+void GarmentSystem::ApplyClampsSmoothly(Positions* x) const {
+  const int nv = num_vertices();
+  // Unit-weight graph Laplacian over mesh edges (each interior edge seen twice; weights cancel in the ratio).
+  std::vector<std::vector<int>> nbrs(nv);
+  for (int f = 0; f < num_faces(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = model_.faces(f, k), b = model_.faces(f, (k + 1) % 3);
+      nbrs[a].push_back(b);
+      nbrs[b].push_back(a);
+    }
+  for (int k = 0; k < 3; ++k) {
+    bool moves = false;
+    for (int v = 0; v < nv; ++v)
+      if (free_index_[3 * v + k] < 0 && clamp_target_(v, k) != (*x)(v, k)) moves = true;
+    if (!moves) continue;
+    std::vector<int> unknown(nv, -1);
+    int n = 0;
+    for (int v = 0; v < nv; ++v)
+      if (free_index_[3 * v + k] >= 0) unknown[v] = n++;
+    std::vector<Eigen::Triplet<double>> trips;
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n);
+    for (int v = 0; v < nv; ++v) {
+      if (unknown[v] < 0) continue;
+      // A tiny diagonal keeps pieces that touch no clamp solvable: their displacement decays to zero.
+      trips.emplace_back(unknown[v], unknown[v], nbrs[v].size() * (1.0 + 1e-9));
+      for (int w : nbrs[v]) {
+        if (unknown[w] >= 0) trips.emplace_back(unknown[v], unknown[w], -1.0);
+        else rhs[unknown[v]] += clamp_target_(w, k) - (*x)(w, k);
+      }
+    }
+    Eigen::SparseMatrix<double> L(n, n);
+    L.setFromTriplets(trips.begin(), trips.end());
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(L);
+    if (ldlt.info() != Eigen::Success) continue;  // keep the plain clamp application
+    const Eigen::VectorXd u = ldlt.solve(rhs);
+    if (!u.allFinite()) continue;
+    for (int v = 0; v < nv; ++v)
+      if (unknown[v] >= 0) (*x)(v, k) += u[unknown[v]];
+  }
+  ApplyClamps(x);
+}
+
+double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Eigen::SparseMatrix<double>* hessian,
+                               EnergyBreakdown* breakdown) {
+  const int nv = num_vertices();
+  const bool want_grad = gradient != nullptr, want_hess = hessian != nullptr;
+  if (want_grad) gradient->setZero(3 * nv);
+  double* values = want_hess ? hessian->valuePtr() : nullptr;
+  if (want_hess) std::fill(values, values + hessian->nonZeros(), 0.0);
+  const Effects& fx = model_.effects;
+  const bool attach = fx.attachments && !model_.attachments.faces.empty();
+  const double attach_kf = attach ? AttachmentFaceStiffness(model_.attachments) : 0.0;
+  std::vector<double> attach_energy(attach ? num_faces() : 0, 0.0);
+
+  // Faces: membrane and attachments. One colour at a time; faces of a colour share no vertex.
+  for (const std::vector<int>& color : colors_) {
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < color.size(); ++i) {
+      const int f = color[i];
+      const Eigen::Vector3d x0 = x.row(model_.faces(f, 0)), x1 = x.row(model_.faces(f, 1)), x2 = x.row(model_.faces(f, 2));
+      Vector9d g = Vector9d::Zero();
+      Matrix9d H = Matrix9d::Zero();
+      face_energy_[f] = 0;
+      if (fx.membrane) {
+        const int m = model_.design[f];
+        Vector9d ge;
+        Matrix9d He;
+        const ElementEvaluation ev = EvaluateMembraneElement(elements_[f], x0, x1, x2, lame_[m], thickness_[m],
+                                                             fx.relaxation, want_grad ? &ge : nullptr,
+                                                             want_hess ? &He : nullptr, true);
+        face_energy_[f] = ev.energy_J;
+        if (!std::isfinite(ev.energy_J)) continue;
+        if (want_grad) g += ge;
+        if (want_hess) H += He;
+      }
+      if (attach && attach_index_[f] >= 0) {
+        Vector9d ga;
+        attach_energy[f] = EvaluateAttachmentFace(model_.attachments, attach_index_[f], x0, x1, x2, want_grad ? &ga : nullptr);
+        if (want_grad) g += ga;
+        if (want_hess) {
+          const double c = 2.0 * attach_kf / 9.0;
+          for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) H.block<3, 3>(3 * a, 3 * b).diagonal().array() += c;
+        }
+      }
+      if (want_grad)
+        for (int a = 0; a < 3; ++a) gradient->segment<3>(3 * model_.faces(f, a)) += g.segment<3>(3 * a);
+      if (want_hess) {
+        const int* map = &face_map_[static_cast<size_t>(f) * 81];
+        for (int r = 0; r < 9; ++r)
+          for (int c = 0; c < 9; ++c)
+            if (map[9 * r + c] >= 0) values[map[9 * r + c]] += H(r, c);
+      }
+    }
+  }
+
+  // Vertices: contact with the body field.
+  if (fx.contact != ContactModel::kNone) {
+#pragma omp parallel for schedule(static)
+    for (int v = 0; v < nv; ++v) {
+      Eigen::Vector3d g;
+      Eigen::Matrix3d H;
+      const ContactEvaluation ce =
+          EvaluateContactVertex(*model_.body, x.row(v).transpose(), &caches_[v], fx.contact,
+                                model_.contact_stiffness_N_per_m, want_grad ? &g : nullptr, want_hess ? &H : nullptr, true);
+      vertex_energy_[v] = ce.energy_J;
+      if (want_grad) gradient->segment<3>(3 * v) += g;
+      if (want_hess) {
+        const int* map = &vertex_map_[9 * v];
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            if (map[3 * i + j] >= 0) values[map[3 * i + j]] += H(i, j);
+      }
+    }
+  }
+
+  // Serial sums in a fixed order keep results bit-identical whatever the thread count.
+  EnergyBreakdown e;
+  for (double fe : face_energy_) e.membrane_J += fe;
+  for (double ae : attach_energy) e.attachment_J += ae;
+  if (fx.contact != ContactModel::kNone)
+    for (double ve : vertex_energy_) e.contact_J += ve;
+  if (breakdown) *breakdown = e;
+  const double total = e.total_J();
+  return std::isnan(total) ? std::numeric_limits<double>::infinity() : total;
+}
+
+void GarmentSystem::FaceDensities(const Positions& x, Eigen::VectorXd* density, std::vector<MembraneRegime>* regime) const {
+  const int nf = num_faces();
+  if (density) density->resize(nf);
+  if (regime) regime->resize(nf);
+  for (int f = 0; f < nf; ++f) {
+    const int m = model_.design[f];
+    const ElementEvaluation ev = EvaluateMembraneElement(elements_[f], x.row(model_.faces(f, 0)), x.row(model_.faces(f, 1)),
+                                                         x.row(model_.faces(f, 2)), lame_[m], thickness_[m],
+                                                         model_.effects.relaxation, nullptr, nullptr, true);
+    if (density) (*density)[f] = ev.density_Pa;
+    if (regime) (*regime)[f] = ev.regime;
+  }
+}
+
+Eigen::VectorXd GarmentSystem::VertexPhi(const Positions& x) {
+  Eigen::VectorXd phi = Eigen::VectorXd::Constant(num_vertices(), std::numeric_limits<double>::quiet_NaN());
+  if (!model_.body) return phi;
+  if (caches_.empty()) caches_.resize(num_vertices());
+  for (int v = 0; v < num_vertices(); ++v) {
+    const FieldSample s = model_.body->Evaluate(x.row(v).transpose(), &caches_[v], false, false);
+    if (s.supported) phi[v] = s.phi_m;
+  }
+  return phi;
+}
+
+Eigen::Vector3d GarmentSystem::ClampReaction(int clamp, const Eigen::VectorXd& gradient) const {
+  Eigen::Vector3d r = Eigen::Vector3d::Zero();
+  for (int v : model_.clamps[clamp].vertices) r += gradient.segment<3>(3 * v);
+  return r;
+}
+
+}  // namespace kgd

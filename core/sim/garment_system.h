@@ -1,0 +1,138 @@
+// The garment-on-body system: the total potential energy of a garment (membrane + contact with the
+// body field + attachments) over the free degrees of freedom left by the clamps, with its gradient
+// and a projected (positive semi-definite) Hessian assembled into a fixed sparse pattern.
+//
+// Effects are opt-in: only the terms the model names are built and evaluated. A model without contact
+// needs no body field and none is built.
+//
+// Units: positions m, energies J, gradients N, Hessians N/m.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/body/body_field.h"
+#include "core/mesh/trimesh.h"
+#include "core/sim/attachment.h"
+#include "core/sim/contact.h"
+#include "core/sim/membrane.h"
+#include "core/util/status.h"
+
+namespace kgd {
+
+// A set of vertices with prescribed positions, e.g. the jaws of a pull tester. Only the coordinates
+// marked in `axes` are prescribed: target = initial position + displacement.
+struct Clamp {
+  std::string name;
+  std::vector<int> vertices;
+  std::array<bool, 3> axes = {true, true, true};
+  Eigen::Vector3d displacement_m = Eigen::Vector3d::Zero();
+};
+
+struct Effects {
+  bool membrane = true;
+  Relaxation relaxation = Relaxation::kExact;
+  ContactModel contact = ContactModel::kNone;
+  bool attachments = false;
+  bool clamps = false;
+};
+
+// Design values per face.
+enum : uint8_t { kCloth = 0, kReinforced = 1 };
+
+struct GarmentModel {
+  Faces faces;
+  Positions rest;                  // rest positions; each triangle's rest shape is taken in its own plane
+  std::vector<uint8_t> design;     // per face: kCloth or kReinforced
+  Material cloth = ClothMaterial();
+  Material reinforced = ReinforcedMaterial();
+  LameConversion lame = LameConversion::kSolid3D;
+  Effects effects;
+  std::shared_ptr<const BodyField> body;  // required when effects.contact != kNone
+  double contact_stiffness_N_per_m = kDefaultContactStiffness;
+  Attachments attachments;                // used when effects.attachments
+  std::vector<Clamp> clamps;              // used when effects.clamps
+};
+
+// Checks sizes, indices, materials and that the effects have what they need. Names the offending item.
+Status ValidateModel(const GarmentModel& model);
+
+struct EnergyBreakdown {
+  double membrane_J = 0;
+  double contact_J = 0;
+  double attachment_J = 0;
+  double total_J() const { return membrane_J + contact_J + attachment_J; }
+};
+
+class GarmentSystem {
+ public:
+  // Precondition: ValidateModel(model).ok(), and `initial` has one row per rest vertex. Clamp targets
+  // are taken from `initial`.
+  GarmentSystem(GarmentModel model, const Positions& initial);
+
+  const GarmentModel& model() const { return model_; }
+  int num_vertices() const { return static_cast<int>(model_.rest.rows()); }
+  int num_faces() const { return static_cast<int>(model_.faces.rows()); }
+  int num_free_dofs() const { return num_free_; }
+  // For each of the 3n coordinates, its index among the free ones, or -1 if clamped.
+  const std::vector<int>& free_index() const { return free_index_; }
+  const std::vector<MembraneElement>& elements() const { return elements_; }
+
+  // Changes the material of faces (the BESO loop does this between solves); the pattern is unchanged.
+  void SetDesign(const std::vector<uint8_t>& design);
+
+  // Sets the clamped coordinates of x to their targets.
+  void ApplyClamps(Positions* x) const;
+
+  // Moves clamped coordinates to their targets and carries the same displacement into the free
+  // coordinates by harmonic extension over the mesh graph. Starting a pull from a state where only the
+  // jaws moved would leave the interior slack, with no stiffness to guide Newton.
+  void ApplyClampsSmoothly(Positions* x) const;
+
+  // Total energy at x (+infinity where undefined) and, on request, the gradient over all 3n coordinates
+  // and the projected Hessian over the free ones. `hessian` must be a copy of hessian_pattern().
+  double Evaluate(const Positions& x, Eigen::VectorXd* gradient, Eigen::SparseMatrix<double>* hessian,
+                  EnergyBreakdown* breakdown = nullptr);
+
+  // Upper triangle (free dofs, column-major) of the Hessian's sparsity; values are zero.
+  const Eigen::SparseMatrix<double>& hessian_pattern() const { return pattern_; }
+
+  // Per-face energy density W (Pa) and regime at x.
+  void FaceDensities(const Positions& x, Eigen::VectorXd* density_Pa, std::vector<MembraneRegime>* regime) const;
+
+  // Phi at each vertex (m); NaN where the field has no support. Requires contact.
+  Eigen::VectorXd VertexPhi(const Positions& x);
+
+  // Force the clamp exerts on the garment at x (N): the sum of dE/dx over its vertices.
+  Eigen::Vector3d ClampReaction(int clamp, const Eigen::VectorXd& gradient) const;
+
+  // Reference force for scale-aware tolerances (N): the stiffest material's E * t times the mean rest
+  // edge length, i.e. the force that stretches a typical element by 100 %.
+  double force_scale_N() const { return force_scale_; }
+  double mean_edge_length_m() const { return mean_edge_; }
+  // Stiffness scale (N/m): the stiffest material's E * t, the order of a vertex's membrane stiffness.
+  double stiffness_scale_N_per_m() const { return stiffness_scale_; }
+
+ private:
+  GarmentModel model_;
+  std::vector<MembraneElement> elements_;
+  Lame lame_[2];
+  double thickness_[2];
+  std::vector<int> attach_index_;        // per face: index into attachments.faces, or -1
+  std::vector<int> free_index_;
+  int num_free_ = 0;
+  Positions clamp_target_;
+  std::vector<std::vector<int>> colors_;  // face groups with no shared vertex: parallel scatter without races
+  std::vector<int> face_map_;             // 81 per face: value index for (row, col) or -1
+  std::vector<int> vertex_map_;           // 9 per vertex
+  Eigen::SparseMatrix<double> pattern_;
+  std::vector<NeighborCache> caches_;
+  std::vector<double> face_energy_, vertex_energy_;
+  double force_scale_ = 1, mean_edge_ = 0, stiffness_scale_ = 1;
+};
+
+}  // namespace kgd

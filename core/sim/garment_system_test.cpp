@@ -1,0 +1,152 @@
+#include "core/sim/garment_system.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <random>
+
+#include "core/scene/scene.h"
+
+namespace kgd {
+namespace {
+
+// A small sleeve on the limb with every effect on: contact, attachments, a clamp, mixed design.
+struct Fixture {
+  std::unique_ptr<GarmentSystem> sys;
+  Positions x;
+};
+
+Fixture MakeSystem(ContactModel contact, Relaxation relax) {
+  SleeveOptions o;
+  o.around = 12;
+  o.sleeve_halflength_m = 0.05;
+  o.contact = contact;
+  SceneSpec s = SleeveOnLimbScene(o);
+  s.effects.relaxation = relax;
+  for (size_t f = 0; f < s.design.size(); f += 3) s.design[f] = kReinforced;
+  s.effects.clamps = true;
+  Clamp c;
+  c.name = "pin";
+  c.vertices = {0, 1};
+  c.axes = {true, false, true};
+  s.clamps = {c};
+  auto model = BuildGarmentModel(s);
+  EXPECT_TRUE(model.ok()) << model.message();
+  Fixture fx;
+  fx.sys = std::make_unique<GarmentSystem>(std::move(model).value(), s.initial);
+  fx.x = s.initial;
+  // Perturb so that regimes mix (taut, wrinkled, slack) and some vertices sit inside the body.
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0, 1.5e-3);
+  for (Eigen::Index v = 0; v < fx.x.rows(); ++v)
+    for (int k = 0; k < 3; ++k) fx.x(v, k) += n(rng);
+  fx.sys->ApplyClamps(&fx.x);
+  return fx;
+}
+
+TEST(GarmentSystem, TotalGradientMatchesFiniteDifferences) {
+  for (ContactModel contact : {ContactModel::kNone, ContactModel::kUnilateral, ContactModel::kBilateral}) {
+    Fixture fx = MakeSystem(contact, Relaxation::kExact);
+    Eigen::VectorXd g;
+    EnergyBreakdown e;
+    fx.sys->Evaluate(fx.x, &g, nullptr, &e);
+    EXPECT_GT(e.membrane_J, 0);
+    EXPECT_GT(e.attachment_J, 0);
+    if (contact != ContactModel::kNone) {
+      EXPECT_GT(e.contact_J, 0);
+    }
+    const double h = 1e-8;
+    double max_err = 0, max_g = 0;
+    for (int d = 0; d < 3 * fx.sys->num_vertices(); d += 7) {
+      Positions xp = fx.x, xm = fx.x;
+      xp(d / 3, d % 3) += h;
+      xm(d / 3, d % 3) -= h;
+      const double fd = (fx.sys->Evaluate(xp, nullptr, nullptr) - fx.sys->Evaluate(xm, nullptr, nullptr)) / (2 * h);
+      max_err = std::max(max_err, std::abs(fd - g[d]));
+      max_g = std::max(max_g, std::abs(g[d]));
+    }
+    EXPECT_LT(max_err, 1e-5 * max_g);
+  }
+}
+
+// The sparse assembly equals a dense sum of the per-term projected Hessians restricted to free dofs.
+TEST(GarmentSystem, SparseAssemblyMatchesDenseAssembly) {
+  Fixture fx = MakeSystem(ContactModel::kUnilateral, Relaxation::kExact);
+  GarmentSystem& sys = *fx.sys;
+  Eigen::SparseMatrix<double> H = sys.hessian_pattern();
+  sys.Evaluate(fx.x, nullptr, &H);
+  const int n3 = 3 * sys.num_vertices();
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(n3, n3);
+  const GarmentModel& m = sys.model();
+  const double kf = AttachmentFaceStiffness(m.attachments);
+  std::vector<char> attached(sys.num_faces(), 0);
+  for (int f : m.attachments.faces) attached[f] = 1;
+  for (int f = 0; f < sys.num_faces(); ++f) {
+    const Material& mat = m.design[f] ? m.reinforced : m.cloth;
+    Matrix9d He;
+    EvaluateMembraneElement(sys.elements()[f], fx.x.row(m.faces(f, 0)), fx.x.row(m.faces(f, 1)), fx.x.row(m.faces(f, 2)),
+                            LameParameters(mat, m.lame), mat.thickness_m, m.effects.relaxation, nullptr, &He, true);
+    if (attached[f])
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) He.block<3, 3>(3 * a, 3 * b) += (2 * kf / 9) * Eigen::Matrix3d::Identity();
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) dense.block<3, 3>(3 * m.faces(f, a), 3 * m.faces(f, b)) += He.block<3, 3>(3 * a, 3 * b);
+  }
+  for (int v = 0; v < sys.num_vertices(); ++v) {
+    NeighborCache c;
+    Eigen::Matrix3d Hc;
+    EvaluateContactVertex(*m.body, fx.x.row(v).transpose(), &c, m.effects.contact, m.contact_stiffness_N_per_m, nullptr, &Hc, true);
+    dense.block<3, 3>(3 * v, 3 * v) += Hc;
+  }
+  const Eigen::SparseMatrix<double> full_sparse = H.selfadjointView<Eigen::Upper>();
+  const Eigen::MatrixXd sparse_full = Eigen::MatrixXd(full_sparse);
+  const auto& fi = sys.free_index();
+  double max_err = 0;
+  for (int i = 0; i < n3; ++i)
+    for (int j = 0; j < n3; ++j)
+      if (fi[i] >= 0 && fi[j] >= 0) max_err = std::max(max_err, std::abs(dense(i, j) - sparse_full(fi[i], fi[j])));
+  EXPECT_LT(max_err, 1e-9 * dense.norm());
+  EXPECT_EQ(sys.num_free_dofs(), n3 - 4);  // two vertices with x and z clamped
+}
+
+TEST(GarmentSystem, WithoutContactNoBodyFieldIsBuilt) {
+  const long before = BodyField::BuildCount();
+  auto pull = PullTestScene("line");
+  ASSERT_TRUE(pull.ok());
+  auto model = BuildGarmentModel(*pull);
+  ASSERT_TRUE(model.ok());
+  GarmentSystem sys(std::move(model).value(), pull->initial);
+  Eigen::VectorXd g;
+  sys.Evaluate(pull->initial, &g, nullptr);
+  EXPECT_EQ(BodyField::BuildCount(), before);
+  EXPECT_FALSE(sys.model().body);
+  // A scene that does carry a body mesh, with contact off, does not build one either.
+  SleeveOptions o;
+  o.around = 12;
+  SceneSpec sleeve = SleeveOnLimbScene(o);
+  sleeve.effects.contact = ContactModel::kNone;
+  ASSERT_TRUE(BuildGarmentModel(sleeve).ok());
+  EXPECT_EQ(BodyField::BuildCount(), before);
+  sleeve.effects.contact = ContactModel::kUnilateral;
+  ASSERT_TRUE(BuildGarmentModel(sleeve).ok());
+  EXPECT_EQ(BodyField::BuildCount(), before + 1);
+}
+
+TEST(GarmentSystem, ValidateModelNamesTheProblem) {
+  auto pull = PullTestScene("all_cloth");
+  ASSERT_TRUE(pull.ok());
+  auto model = BuildGarmentModel(*pull);
+  ASSERT_TRUE(model.ok());
+  GarmentModel m = *model;
+  m.cloth.youngs_modulus_Pa = -1;
+  EXPECT_NE(ValidateModel(m).message().find("materials.cloth: youngs_modulus_Pa must be > 0"), std::string::npos);
+  m = *model;
+  m.clamps[1].vertices.push_back(m.clamps[0].vertices[0]);
+  EXPECT_NE(ValidateModel(m).message().find("is already clamped"), std::string::npos);
+  m = *model;
+  m.design[5] = 7;
+  EXPECT_NE(ValidateModel(m).message().find("face 5"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace kgd

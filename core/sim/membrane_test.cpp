@@ -1,0 +1,185 @@
+#include "core/sim/membrane.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <random>
+
+namespace kgd {
+namespace {
+
+struct Triangle {
+  Eigen::Vector3d x[3];
+};
+
+// A rest triangle and a deformed one with prescribed principal stretches (s1 along the first rest edge
+// direction rotated by `angle`), then rigidly rotated in 3D and slightly perturbed.
+Triangle Deformed(const MembraneElement& el, const Eigen::Vector3d rest[3], double s1, double s2, double angle,
+                  std::mt19937& rng) {
+  Eigen::Matrix2d V;
+  V << std::cos(angle), -std::sin(angle), std::sin(angle), std::cos(angle);
+  const Eigen::Matrix2d S = Eigen::Vector2d(s1, s2).asDiagonal();
+  Eigen::Matrix<double, 3, 2> U;
+  std::normal_distribution<double> n(0, 1);
+  Eigen::Matrix3d R = Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized().toRotationMatrix();
+  U = R.leftCols<2>();
+  const Eigen::Matrix<double, 3, 2> F = U * S * V.transpose();
+  // Positions with F = Ds Dm^-1: Ds = F Dm.
+  const Eigen::Matrix2d Dm = el.dm_inv.inverse();
+  const Eigen::Matrix<double, 3, 2> Ds = F * Dm;
+  Triangle t;
+  t.x[0] = Eigen::Vector3d(0.01, -0.02, 0.03);
+  t.x[1] = t.x[0] + Ds.col(0);
+  t.x[2] = t.x[0] + Ds.col(1);
+  return t;
+}
+
+Vector9d Flatten(const Triangle& t) {
+  Vector9d q;
+  for (int a = 0; a < 3; ++a) q.segment<3>(3 * a) = t.x[a];
+  return q;
+}
+
+double Energy(const MembraneElement& el, const Vector9d& q, const Lame& lame, double thick, Relaxation r) {
+  return EvaluateMembraneElement(el, q.segment<3>(0), q.segment<3>(3), q.segment<3>(6), lame, thick, r, nullptr, nullptr,
+                                 false)
+      .energy_J;
+}
+
+class MembraneFD : public ::testing::TestWithParam<std::tuple<Relaxation, LameConversion>> {};
+
+// Central differences of the energy (gradient) and of the analytic gradient (Hessian) in every regime.
+TEST_P(MembraneFD, GradientAndHessianMatchFiniteDifferences) {
+  const auto [relax, conv] = GetParam();
+  const Lame lame = LameParameters(ReinforcedMaterial(), conv);
+  const double thick = 0.35e-3;
+  const Eigen::Vector3d rest[3] = {{0, 0, 0}, {0.005, 0.0005, 0.0002}, {0.0015, 0.0045, -0.0003}};
+  const MembraneElement el = MakeMembraneElement(rest[0], rest[1], rest[2]);
+  std::mt19937 rng(7);
+  struct Case { double s1, s2; MembraneRegime expect; };
+  std::vector<Case> cases;
+  if (relax == Relaxation::kNone) {
+    cases = {{1.1, 1.3, MembraneRegime::kTaut}, {0.7, 1.2, MembraneRegime::kTaut}, {0.8, 0.9, MembraneRegime::kTaut},
+             {1.05, 1.05 + 1e-9, MembraneRegime::kTaut}};
+  } else {
+    const double r = relax == Relaxation::kExact ? FreeContractionStretch(1.3, lame) : 1.0 / std::sqrt(1.3);
+    cases = {{1.1, 1.3, MembraneRegime::kTaut},      {r + 0.02, 1.3, MembraneRegime::kTaut},
+             {r - 0.05, 1.3, MembraneRegime::kWrinkled}, {0.5, 1.15, MembraneRegime::kWrinkled},
+             {0.05, 1.2, MembraneRegime::kWrinkled}, {0.7, 0.9, MembraneRegime::kSlack},
+             {0.95, 0.98, MembraneRegime::kSlack}};
+  }
+  for (const Case& c : cases) {
+    for (double angle : {0.0, 0.7}) {
+      SCOPED_TRACE("s1=" + std::to_string(c.s1) + " s2=" + std::to_string(c.s2) + " angle=" + std::to_string(angle));
+      const Triangle t = Deformed(el, rest, c.s1, c.s2, angle, rng);
+      const Vector9d q = Flatten(t);
+      Vector9d g;
+      Matrix9d H;
+      const ElementEvaluation ev =
+          EvaluateMembraneElement(el, t.x[0], t.x[1], t.x[2], lame, thick, relax, &g, &H, false);
+      EXPECT_EQ(ev.regime, c.expect);
+      const double h = 1e-7 * 0.005;  // relative to the element size
+      Vector9d g_fd;
+      Matrix9d H_fd;
+      for (int i = 0; i < 9; ++i) {
+        Vector9d qp = q, qm = q;
+        qp[i] += h;
+        qm[i] -= h;
+        g_fd[i] = (Energy(el, qp, lame, thick, relax) - Energy(el, qm, lame, thick, relax)) / (2 * h);
+        Vector9d gp, gm;
+        EvaluateMembraneElement(el, qp.segment<3>(0), qp.segment<3>(3), qp.segment<3>(6), lame, thick, relax, &gp, nullptr, false);
+        EvaluateMembraneElement(el, qm.segment<3>(0), qm.segment<3>(3), qm.segment<3>(6), lame, thick, relax, &gm, nullptr, false);
+        H_fd.col(i) = (gp - gm) / (2 * h);
+      }
+      const double gscale = std::max(g.norm(), 1e-3 * lame.mu_Pa * thick * 0.005);
+      EXPECT_LT((g - g_fd).norm(), 1e-5 * gscale) << "g=" << g.transpose() << "\nfd=" << g_fd.transpose();
+      const double hscale = std::max(H.norm(), 1e-3 * lame.mu_Pa * thick);
+      EXPECT_LT((H - H_fd).norm(), 1e-5 * hscale) << "H=\n" << H << "\nfd=\n" << H_fd;
+      EXPECT_LT((H - H.transpose()).norm(), 1e-12 * hscale);
+      // The projected Hessian is PSD and equals the exact one where that is already PSD.
+      Matrix9d Hp;
+      EvaluateMembraneElement(el, t.x[0], t.x[1], t.x[2], lame, thick, relax, nullptr, &Hp, true);
+      Eigen::SelfAdjointEigenSolver<Matrix9d> eig(Hp);
+      EXPECT_GT(eig.eigenvalues().minCoeff(), -1e-10 * hscale);
+      Eigen::SelfAdjointEigenSolver<Matrix9d> eig_exact(H);
+      if (eig_exact.eigenvalues().minCoeff() > 1e-9 * hscale) {
+        EXPECT_LT((Hp - H).norm(), 1e-9 * hscale);
+      }
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllVariants, MembraneFD,
+                         ::testing::Combine(::testing::Values(Relaxation::kExact, Relaxation::kAuthors, Relaxation::kNone),
+                                            ::testing::Values(LameConversion::kSolid3D, LameConversion::kPlaneStress)));
+
+TEST(Membrane, RestStateHasZeroEnergyAndForce) {
+  const Eigen::Vector3d x0(0, 0, 0), x1(0.004, 0.001, 0), x2(0.001, 0.003, 0.001);
+  const MembraneElement el = MakeMembraneElement(x0, x1, x2);
+  for (Relaxation r : {Relaxation::kExact, Relaxation::kAuthors, Relaxation::kNone}) {
+    Vector9d g;
+    const auto ev = EvaluateMembraneElement(el, x0, x1, x2, LameParameters(ClothMaterial(), LameConversion::kSolid3D),
+                                            0.27e-3, r, &g, nullptr, false);
+    EXPECT_NEAR(ev.energy_J, 0.0, 1e-18);
+    EXPECT_LT(g.norm(), 1e-12);
+  }
+  EXPECT_NEAR(el.rest_area_m2, 0.5 * (x1 - x0).cross(x2 - x0).norm(), 1e-18);
+}
+
+TEST(Membrane, FreeContractionStretchSolvesTheLateralEquilibrium) {
+  for (LameConversion conv : {LameConversion::kSolid3D, LameConversion::kPlaneStress}) {
+    const Lame l = LameParameters(ClothMaterial(), conv);
+    for (double s2 : {1.0, 1.05, 1.1, 1.3, 2.0}) {
+      const double r = FreeContractionStretch(s2, l);
+      const StretchEnergy e = EnergyOfStretches(r, s2, l, Relaxation::kNone);
+      EXPECT_NEAR(e.W1, 0.0, 1e-9 * l.mu_Pa) << s2;
+      EXPECT_LE(r, 1.0);
+    }
+    // Small-strain limit: r ~ 1 - nu_eff * eps with nu_eff = lambda / (lambda + 2 mu).
+    const double eps = 1e-5, nu_eff = l.lambda_Pa / (l.lambda_Pa + 2 * l.mu_Pa);
+    EXPECT_NEAR((1.0 - FreeContractionStretch(1.0 + eps, l)) / eps, nu_eff, 1e-3);
+  }
+  // The authors' Lame choice gives the documented in-plane Poisson ratio 0.4925 at nu = 0.33.
+  const Lame a = LameParameters({1e6, 0.33, 1e-3}, LameConversion::kSolid3D);
+  EXPECT_NEAR(a.lambda_Pa / (a.lambda_Pa + 2 * a.mu_Pa), 0.4925, 1e-4);
+}
+
+TEST(Membrane, ExactRelaxationIsContinuouslyDifferentiableAcrossRegimes) {
+  const Lame l = LameParameters(ClothMaterial(), LameConversion::kSolid3D);
+  const double s2 = 1.2, r = FreeContractionStretch(s2, l);
+  const StretchEnergy below = EnergyOfStretches(r - 1e-9, s2, l, Relaxation::kExact);
+  const StretchEnergy above = EnergyOfStretches(r + 1e-9, s2, l, Relaxation::kExact);
+  EXPECT_EQ(below.regime, MembraneRegime::kWrinkled);
+  EXPECT_EQ(above.regime, MembraneRegime::kTaut);
+  EXPECT_NEAR(below.W, above.W, 1e-6);
+  EXPECT_NEAR(below.W1, above.W1, 1e-3);
+  EXPECT_NEAR(below.W2, above.W2, 1e-3);
+  // Into slackness: W and dW/ds2 vanish as s2 -> 1.
+  const StretchEnergy nearly = EnergyOfStretches(0.9, 1.0 + 1e-9, l, Relaxation::kExact);
+  EXPECT_NEAR(nearly.W, 0.0, 1e-6);
+  EXPECT_NEAR(nearly.W2, 0.0, 1e-2);
+  // The exact relaxed energy is the infimum over the compressed stretch: never above plain neo-Hookean.
+  for (double s1 : {0.3, 0.6, 0.9, 1.0, 1.1})
+    EXPECT_LE(EnergyOfStretches(s1, s2, l, Relaxation::kExact).W, EnergyOfStretches(s1, s2, l, Relaxation::kNone).W + 1e-9);
+}
+
+TEST(Membrane, AuthorsVariantHasItsDocumentedGradientJump) {
+  const Lame l = LameParameters(ClothMaterial(), LameConversion::kSolid3D);
+  const double s2 = 1.2, q = 1.0 / std::sqrt(s2);
+  const StretchEnergy below = EnergyOfStretches(q - 1e-9, s2, l, Relaxation::kAuthors);
+  const StretchEnergy above = EnergyOfStretches(q + 1e-9, s2, l, Relaxation::kAuthors);
+  EXPECT_NEAR(below.W, above.W, 1e-5);               // continuous
+  EXPECT_GT(std::abs(above.W1 - below.W1), 1e3);     // but dW/ds1 jumps (Pa)
+}
+
+TEST(Membrane, NoRelaxationRejectsCollapsedTriangles) {
+  const Eigen::Vector3d x0(0, 0, 0), x1(0.004, 0, 0), x2(0, 0.003, 0);
+  const MembraneElement el = MakeMembraneElement(x0, x1, x2);
+  const auto ev = EvaluateMembraneElement(el, x0, x1, Eigen::Vector3d(0.002, 0, 0),
+                                          LameParameters(ClothMaterial(), LameConversion::kSolid3D), 1e-3,
+                                          Relaxation::kNone, nullptr, nullptr, false);
+  EXPECT_TRUE(std::isinf(ev.energy_J));
+}
+
+}  // namespace
+}  // namespace kgd

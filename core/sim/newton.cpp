@@ -1,0 +1,224 @@
+// Projected Newton for Simulator (see simulator.h).
+#include <Eigen/CholmodSupport>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "core/sim/simulator.h"
+
+namespace kgd {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
+
+Eigen::VectorXd GatherFree(const Eigen::VectorXd& full, const std::vector<int>& free_index, int n_free) {
+  Eigen::VectorXd out(n_free);
+  for (size_t d = 0; d < free_index.size(); ++d)
+    if (free_index[d] >= 0) out[free_index[d]] = full[d];
+  return out;
+}
+
+void AddFree(const Eigen::VectorXd& step, double alpha, const std::vector<int>& free_index, const Positions& from,
+             Positions* to) {
+  *to = from;
+  double* data = to->data();
+  for (size_t d = 0; d < free_index.size(); ++d)
+    if (free_index[d] >= 0) data[d] += alpha * step[free_index[d]];
+}
+
+}  // namespace
+
+const char* ToString(SolveStatus s) {
+  switch (s) {
+    case SolveStatus::kConverged: return "converged";
+    case SolveStatus::kLineSearchFailed: return "line_search_failed";
+    case SolveStatus::kNotPositiveDefinite: return "not_positive_definite";
+    case SolveStatus::kIterationLimit: return "iteration_limit";
+    case SolveStatus::kInvalidState: return "invalid_state";
+  }
+  return "unknown";
+}
+
+struct Simulator::Newton {
+  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Upper> llt;
+  bool analyzed = false;
+  bool have_factor = false;
+  Eigen::SparseMatrix<double> H;
+};
+
+Simulator::Simulator(GarmentSystem* system) : system_(system), newton_(std::make_unique<Newton>()) {
+  newton_->llt.cholmod().print = 0;  // failures are reported through SolveReport, not stderr
+  newton_->H = system_->hessian_pattern();
+}
+
+Simulator::~Simulator() = default;
+
+void Simulator::ResetFactorization() { newton_->have_factor = false; }
+
+SolveReport Simulator::Solve(Positions* x, const SolverSettings& settings) {
+  const auto t0 = Clock::now();
+  SolveReport r = settings.method == SolverMethod::kNewton ? SolveNewton(x, settings) : SolveLbfgs(x, settings);
+  r.seconds = Seconds(t0, Clock::now());
+  return r;
+}
+
+SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings) {
+  GarmentSystem& sys = *system_;
+  Newton& nt = *newton_;
+  const std::vector<int>& free_index = sys.free_index();
+  const int n = sys.num_free_dofs();
+  const int max_it = settings.max_iterations > 0 ? settings.max_iterations : 200;
+  SolveReport rep;
+  rep.tolerance_N = settings.grad_tol * sys.force_scale_N() * std::sqrt(std::max(1.0, n / 3.0));
+
+  sys.ApplyClampsSmoothly(x);
+  Eigen::VectorXd g_full;
+  auto t = Clock::now();
+  double E = sys.Evaluate(*x, &g_full, &nt.H, &rep.energies);
+  rep.assembly_s += Seconds(t, Clock::now());
+  ++rep.energy_evaluations;
+  if (!std::isfinite(E)) {
+    rep.status = SolveStatus::kInvalidState;
+    rep.message = "energy is not finite at the initial state (inverted or degenerate triangle without relaxation?)";
+    rep.energy_J = E;
+    return rep;
+  }
+  if (n == 0) {
+    rep.status = SolveStatus::kConverged;
+    rep.energy_J = E;
+    return rep;
+  }
+  Eigen::VectorXd g = GatherFree(g_full, free_index, n);
+  const double rms_scale = sys.force_scale_N() * std::sqrt(std::max(1.0, n / 3.0));
+  const double g0 = g.norm();
+  Positions trial;
+  Eigen::VectorXd g_trial_full;
+
+  for (int it = 0;; ++it) {
+    rep.iterations = it;
+    rep.energy_J = E;
+    rep.grad_norm_N = g.norm();
+    if (rep.grad_norm_N <= rep.tolerance_N) {
+      rep.status = SolveStatus::kConverged;
+      return rep;
+    }
+    if (it >= max_it) {
+      rep.status = SolveStatus::kIterationLimit;
+      rep.message = "no convergence in " + std::to_string(max_it) + " Newton iterations";
+      return rep;
+    }
+    // Regularization: proportional to the relative residual, so it vanishes at convergence; scaled by
+    // the material's stiffness (not by the current Hessian, which is near zero where cloth is slack).
+    double delta = sys.stiffness_scale_N_per_m() * std::max(1e-12, std::min(1e-2, 1e-2 * rep.grad_norm_N / rms_scale));
+
+    bool accepted = false;
+    bool fresh_factor = false;
+    bool used_pcg = false;
+    double alpha = 1.0;
+    for (int attempt = 0; attempt < 8 && !accepted; ++attempt) {
+      Eigen::VectorXd p;
+      bool have_step = false;
+      // 1) Conjugate gradients preconditioned by the previous factorization.
+      if (settings.reuse_factorization && nt.have_factor && !fresh_factor && attempt == 0) {
+        t = Clock::now();
+        const double eta = std::min(0.1, std::sqrt(rep.grad_norm_N / std::max(g0, 1e-300)));
+        Eigen::VectorXd rvec = -g, z = nt.llt.solve(rvec), d = z, Ad;
+        p = Eigen::VectorXd::Zero(n);
+        double rz = rvec.dot(z);
+        const double target = eta * rep.grad_norm_N;
+        int k = 0;
+        for (; k < settings.max_pcg_iterations; ++k) {
+          Ad = nt.H.selfadjointView<Eigen::Upper>() * d + delta * d;
+          const double dAd = d.dot(Ad);
+          if (!(dAd > 0)) break;
+          const double a = rz / dAd;
+          p += a * d;
+          rvec -= a * Ad;
+          if (rvec.norm() <= target) { have_step = true; ++k; break; }
+          z = nt.llt.solve(rvec);
+          const double rz_new = rvec.dot(z);
+          d = z + (rz_new / rz) * d;
+          rz = rz_new;
+        }
+        rep.pcg_iterations += k;
+        rep.solve_s += Seconds(t, Clock::now());
+        if (have_step) ++rep.pcg_solves;
+        used_pcg = have_step;
+      }
+      // 2) Fresh factorization of H + delta I (raising delta until CHOLMOD succeeds).
+      if (!have_step) {
+        t = Clock::now();
+        if (!nt.analyzed) {
+          nt.llt.analyzePattern(nt.H);
+          nt.analyzed = true;
+        }
+        bool ok = false;
+        for (int tries = 0; tries < 12; ++tries) {
+          nt.llt.setShift(delta);
+          nt.llt.factorize(nt.H);
+          ++rep.factorizations;
+          if (nt.llt.info() == Eigen::Success) { ok = true; break; }
+          delta *= 10.0;
+        }
+        rep.factorization_s += Seconds(t, Clock::now());
+        if (!ok) {
+          nt.have_factor = false;
+          rep.status = SolveStatus::kNotPositiveDefinite;
+          rep.message = "Hessian not positive definite even with regularization " + std::to_string(delta) + " N/m";
+          return rep;
+        }
+        nt.have_factor = true;
+        fresh_factor = true;
+        t = Clock::now();
+        p = nt.llt.solve(-g);
+        rep.solve_s += Seconds(t, Clock::now());
+      }
+      const double slope = g.dot(p);
+      if (!(slope < 0) || !p.allFinite()) {
+        delta *= 100.0;
+        fresh_factor = false;
+        nt.have_factor = false;
+        continue;
+      }
+      // Backtracking Armijo line search on the total energy.
+      t = Clock::now();
+      double E_new = 0;
+      alpha = 1.0;
+      for (int ls = 0; ls < 40; ++ls, alpha *= 0.5) {
+        AddFree(p, alpha, free_index, *x, &trial);
+        E_new = sys.Evaluate(trial, nullptr, nullptr);
+        ++rep.energy_evaluations;
+        if (E_new <= E + 1e-4 * alpha * slope) { accepted = true; break; }
+        // Near the solution energy differences drown in round-off; a full step that does not raise E
+        // beyond round-off is still taken when it reduces the residual.
+        if (ls == 0 && std::isfinite(E_new) && E_new - E <= 1e-12 * std::abs(E)) {
+          sys.Evaluate(trial, &g_trial_full, nullptr);
+          ++rep.energy_evaluations;
+          if (GatherFree(g_trial_full, free_index, n).norm() < rep.grad_norm_N) { accepted = true; break; }
+        }
+      }
+      rep.line_search_s += Seconds(t, Clock::now());
+      if (!accepted) {
+        // Retry with a fresh factorization and a larger regularization (a shorter, more gradient-like step).
+        if (fresh_factor) delta *= 100.0;
+        fresh_factor = false;
+        nt.have_factor = false;
+      }
+    }
+    if (!accepted) {
+      rep.status = SolveStatus::kLineSearchFailed;
+      rep.message = "line search found no energy decrease; residual " + std::to_string(rep.grad_norm_N) + " N";
+      return rep;
+    }
+    x->swap(trial);
+    t = Clock::now();
+    E = sys.Evaluate(*x, &g_full, &nt.H, &rep.energies);
+    rep.assembly_s += Seconds(t, Clock::now());
+    ++rep.energy_evaluations;
+    g = GatherFree(g_full, free_index, n);
+    if (settings.on_iteration) settings.on_iteration({it + 1, E, g.norm(), alpha, delta, used_pcg});
+  }
+}
+
+}  // namespace kgd

@@ -1,0 +1,84 @@
+#include "core/sim/simulator.h"
+
+#include <gtest/gtest.h>
+
+#include "core/scene/scene.h"
+#include "core/scene/simulate.h"
+
+namespace kgd {
+namespace {
+
+SceneSpec SmallSleeve() {
+  SleeveOptions o;
+  o.around = 16;
+  o.sleeve_halflength_m = 0.08;
+  return SleeveOnLimbScene(o);
+}
+
+TEST(Simulator, NewtonConvergesAndEnergyDecreases) {
+  SceneSpec s = SmallSleeve();
+  auto model = BuildGarmentModel(s);
+  ASSERT_TRUE(model.ok());
+  GarmentSystem sys(std::move(model).value(), s.initial);
+  Simulator sim(&sys);
+  Positions x = s.initial;
+  const double e0 = sys.Evaluate(x, nullptr, nullptr);
+  const SolveReport r = sim.Solve(&x, {});
+  EXPECT_TRUE(r.converged()) << ToString(r.status) << " " << r.message;
+  EXPECT_LT(r.energy_J, e0);
+  EXPECT_LE(r.grad_norm_N, r.tolerance_N);
+  EXPECT_LT(r.iterations, 60);
+  // A warm re-solve from the solution needs no iteration.
+  const SolveReport again = sim.Solve(&x, {});
+  EXPECT_TRUE(again.converged());
+  EXPECT_EQ(again.iterations, 0);
+}
+
+TEST(Simulator, WarmResolveAfterADesignChangeReusesTheFactorization) {
+  SceneSpec s = SmallSleeve();
+  auto model = BuildGarmentModel(s);
+  ASSERT_TRUE(model.ok());
+  GarmentSystem sys(std::move(model).value(), s.initial);
+  Simulator sim(&sys);
+  Positions x = s.initial;
+  ASSERT_TRUE(sim.Solve(&x, {}).converged());
+  // Reinforce 1.5 % of the faces and re-solve from the previous equilibrium.
+  std::vector<uint8_t> design = sys.model().design;
+  for (size_t f = 0; f < design.size(); f += 67) design[f] = kReinforced;
+  sys.SetDesign(design);
+  Positions x_reuse = x, x_fresh = x;
+  const SolveReport reuse = sim.Solve(&x_reuse, {});
+  EXPECT_TRUE(reuse.converged()) << reuse.message;
+  EXPECT_GT(reuse.pcg_solves, 0);
+  SolverSettings no_reuse;
+  no_reuse.reuse_factorization = false;
+  Simulator fresh(&sys);
+  const SolveReport direct = fresh.Solve(&x_fresh, no_reuse);
+  EXPECT_TRUE(direct.converged());
+  EXPECT_NEAR(reuse.energy_J, direct.energy_J, 1e-8 * std::abs(direct.energy_J));
+}
+
+TEST(Simulator, ReportsAnInvalidInitialState) {
+  auto pull = PullTestScene("all_cloth");
+  ASSERT_TRUE(pull.ok());
+  pull->effects.relaxation = Relaxation::kNone;
+  // Collapse one interior triangle onto a line: plain neo-Hookean energy is infinite there.
+  const int f = 1000;
+  pull->initial.row(pull->garment.faces(f, 2)) = pull->initial.row(pull->garment.faces(f, 0));
+  auto model = BuildGarmentModel(*pull);
+  ASSERT_FALSE(model.ok());  // a degenerate start is rejected up front with the face named
+  EXPECT_NE(model.message().find("zero area"), std::string::npos) << model.message();
+}
+
+TEST(Simulator, IterationLimitIsReportedWithTheResidual) {
+  auto pull = PullTestScene("x");
+  ASSERT_TRUE(pull.ok());
+  pull->solver.max_iterations = 1;
+  auto r = SimulateScene(*pull);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->solve.status, SolveStatus::kIterationLimit);
+  EXPECT_GT(r->solve.grad_norm_N, r->solve.tolerance_N);
+}
+
+}  // namespace
+}  // namespace kgd

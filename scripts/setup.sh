@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Installs every build and test dependency of kgd from Debian 12 packages.
+# Idempotent and non-interactive; needs root (or sudo) for apt-get.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake pkg-config
+  libeigen3-dev            # dense/sparse linear algebra for the FEM
+  libsuitesparse-dev       # CHOLMOD supernodal sparse Cholesky
+  libopenblas-dev          # BLAS/LAPACK behind CHOLMOD's supernodal kernels
+  libnanoflann-dev         # k-d tree for the body field's neighbour search
+  libcli11-dev             # command-line parsing for the kgd CLI
+  nlohmann-json3-dev       # scene files and --json output
+  libgtest-dev libgmock-dev  # unit and integration tests
+  libbenchmark-dev         # benchmarks in bench/
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+echo "setup: installing ${missing[*]}"
+$SUDO apt-get update -q
+$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
