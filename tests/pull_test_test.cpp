@@ -20,8 +20,8 @@ double PullForce(const std::string& design) {
   EXPECT_EQ(r->clamp_forces.size(), 2u);
   const Eigen::Vector3d moving = r->clamp_forces[1].force_N, fixed = r->clamp_forces[0].force_N;
   EXPECT_LT((moving + fixed).norm(), 1e-6 * moving.norm());  // the sample is in equilibrium
-  // The "/" diagonals make the mesh slightly anisotropic: a lateral force of under 0.1 % of the pull.
-  EXPECT_LT(std::abs(moving.x()) + std::abs(moving.y()), 1e-3 * moving.norm());
+  // The "/" diagonals make the mesh slightly anisotropic: a lateral force of under 0.2 % of the pull.
+  EXPECT_LT(std::abs(moving.x()) + std::abs(moving.y()), 2e-3 * moving.norm());
   return moving.z();
 }
 

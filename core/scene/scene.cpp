@@ -500,9 +500,12 @@ SceneSpec SleeveOnLimbScene(const SleeveOptions& o) {
   s.initial.resize(garment_vertices.size(), 3);
   double y_min = 1e300, y_max = -1e300;
   for (size_t i = 0; i < garment_vertices.size(); ++i) {
-    // A tight sleeve: the rest shape is the limb's surface shrunk about its axis, so it is in tension on the body.
+    // The sleeve is a straight tube of the limb's nominal radius (it does not follow the waist), shorter
+    // than the limb section it covers, so it is in tension between its attachment bands.
     const Eigen::Vector3d p = body_rest.vertices.row(garment_vertices[i]);
-    s.garment.vertices.row(i) << o.tightness * p.x(), o.tightness * p.y(), o.tightness * p.z();
+    const double radial = std::hypot(p.x(), p.z());
+    const double scale = o.hoop_tightness * shape.radius_m / radial;
+    s.garment.vertices.row(i) << scale * p.x(), o.axial_tightness * p.y(), scale * p.z();
     s.initial.row(i) = body_posed.row(garment_vertices[i]);
     y_min = std::min(y_min, p.y());
     y_max = std::max(y_max, p.y());

@@ -72,13 +72,16 @@ Result<SceneSpec> BuiltinScene(const std::string& name);
 // Pull test of the paper's 2D validation: 10 x 14 cm, 2.5 mm grid, 2 cm clamp strips, the far one moved
 // by `pull_m` along +z. design: "all_cloth", "all_reinforced", "line" (4 cm centred band) or "x".
 Result<SceneSpec> PullTestScene(const std::string& design, double pull_m = 0.01);
-// Sleeve on a flexing limb: garment = the limb surface within `sleeve_halflength_m` of the joint, its rest
-// shape shrunk by `tightness` (a tight sleeve is in tension on the body), attachment bands at both ends.
+// Sleeve on a flexing limb: garment = the limb surface within `sleeve_halflength_m` of the joint. Its rest
+// shape is a straight tube of the limb's nominal radius times `hoop_tightness` (it does not follow the
+// waist: a concavity the cloth can bridge), shortened along the limb by `axial_tightness` (so it is in
+// tension between its attachment bands at both ends). It starts on the body surface in the flexed pose.
 struct SleeveOptions {
   int around = 32;
   double flex_angle_rad = 0.8;
   double sleeve_halflength_m = 0.12;
-  double tightness = 0.9;
+  double axial_tightness = 0.85;
+  double hoop_tightness = 1.0;
   ContactModel contact = ContactModel::kUnilateral;
   bool reinforced = false;
 };

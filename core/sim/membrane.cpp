@@ -125,7 +125,11 @@ ElementEvaluation EvaluateMembraneElement(const MembraneElement& element, const 
   eig.computeDirect(C);
   const Eigen::Vector2d c = eig.eigenvalues();  // ascending
   const Eigen::Matrix2d V = eig.eigenvectors();
-  const double s1 = std::sqrt(std::max(c[0], 0.0)), s2 = std::sqrt(std::max(c[1], 0.0));
+  // The small singular value from the eigenvalue loses accuracy by cancellation when a triangle nearly
+  // collapses; J = |f1 x f2| (the area ratio) is exact, so s1 = J / s2.
+  const double s2 = std::sqrt(std::max(c[1], 0.0));
+  const double J = F.col(0).cross(F.col(1)).norm();
+  const double s1 = s2 > 0 ? std::min(J / s2, s2) : 0.0;
 
   const StretchEnergy w = EnergyOfStretches(s1, s2, lame, relaxation);
   const double scale = thickness_m * element.rest_area_m2;
