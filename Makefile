@@ -14,7 +14,7 @@ build: setup
 
 # The main job. Until the design service exists this is the built-in contact demo: a sleeve on a flexing limb.
 demo: build
-	$(BUILD)/client/kgd simulate --builtin sleeve_on_limb
+	$(BUILD)/client/kgd simulate sleeve_on_limb --out $(BUILD)/sleeve_on_limb.ply
 
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j$(JOBS)

@@ -505,7 +505,8 @@ SceneSpec SleeveOnLimbScene(const SleeveOptions& o) {
     const Eigen::Vector3d p = body_rest.vertices.row(garment_vertices[i]);
     const double radial = std::hypot(p.x(), p.z());
     const double scale = o.hoop_tightness * shape.radius_m / radial;
-    s.garment.vertices.row(i) << scale * p.x(), o.axial_tightness * p.y(), scale * p.z();
+    if (o.rest_on_body) s.garment.vertices.row(i) = p.transpose();
+    else s.garment.vertices.row(i) << scale * p.x(), o.axial_tightness * p.y(), scale * p.z();
     s.initial.row(i) = body_posed.row(garment_vertices[i]);
     y_min = std::min(y_min, p.y());
     y_max = std::max(y_max, p.y());

@@ -82,6 +82,9 @@ struct SleeveOptions {
   double sleeve_halflength_m = 0.12;
   double axial_tightness = 0.85;
   double hoop_tightness = 1.0;
+  // Paper-like instead: the garment's rest shape is the limb surface in the rest pose itself (tightness
+  // ignored), so it is strained only by the flexion, as the paper initializes garments on STAR bodies.
+  bool rest_on_body = false;
   ContactModel contact = ContactModel::kUnilateral;
   bool reinforced = false;
 };

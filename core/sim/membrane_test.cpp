@@ -109,9 +109,17 @@ TEST_P(MembraneFD, GradientAndHessianMatchFiniteDifferences) {
   }
 }
 
+std::string VariantName(const ::testing::TestParamInfo<MembraneFD::ParamType>& info) {
+  const Relaxation r = std::get<0>(info.param);
+  const LameConversion c = std::get<1>(info.param);
+  return std::string(r == Relaxation::kExact ? "Exact" : r == Relaxation::kAuthors ? "Authors" : "None") +
+         (c == LameConversion::kSolid3D ? "_Solid3D" : "_PlaneStress");
+}
+
 INSTANTIATE_TEST_SUITE_P(AllVariants, MembraneFD,
                          ::testing::Combine(::testing::Values(Relaxation::kExact, Relaxation::kAuthors, Relaxation::kNone),
-                                            ::testing::Values(LameConversion::kSolid3D, LameConversion::kPlaneStress)));
+                                            ::testing::Values(LameConversion::kSolid3D, LameConversion::kPlaneStress)),
+                         VariantName);
 
 TEST(Membrane, RestStateHasZeroEnergyAndForce) {
   const Eigen::Vector3d x0(0, 0, 0), x1(0.004, 0.001, 0), x2(0.001, 0.003, 0.001);

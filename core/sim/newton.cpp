@@ -90,8 +90,13 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
     return rep;
   }
   Eigen::VectorXd g = GatherFree(g_full, free_index, n);
-  const double rms_scale = sys.force_scale_N() * std::sqrt(std::max(1.0, n / 3.0));
   const double g0 = g.norm();
+  // Levenberg-Marquardt damping delta (N/m), adapted to how well the last step's quadratic model held:
+  // shrinks after full steps (so it vanishes at convergence), grows after short ones. It bounds the steps
+  // along the model's singular modes (slack cloth, sliding on the body, free translations).
+  const double k_ref = sys.stiffness_scale_N_per_m();
+  double mu = 1e-4 * k_ref;
+  bool skip_pcg = false;
   Positions trial;
   Eigen::VectorXd g_trial_full;
 
@@ -108,9 +113,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       rep.message = "no convergence in " + std::to_string(max_it) + " Newton iterations";
       return rep;
     }
-    // Regularization: proportional to the relative residual, so it vanishes at convergence; scaled by
-    // the material's stiffness (not by the current Hessian, which is near zero where cloth is slack).
-    double delta = sys.stiffness_scale_N_per_m() * std::max(1e-12, std::min(1e-2, 1e-2 * rep.grad_norm_N / rms_scale));
+    double delta = std::max(mu, 1e-12 * k_ref);
 
     bool accepted = false;
     bool fresh_factor = false;
@@ -120,7 +123,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       Eigen::VectorXd p;
       bool have_step = false;
       // 1) Conjugate gradients preconditioned by the previous factorization.
-      if (settings.reuse_factorization && nt.have_factor && !fresh_factor && attempt == 0) {
+      if (settings.reuse_factorization && nt.have_factor && !fresh_factor && attempt == 0 && !skip_pcg) {
         t = Clock::now();
         const double eta = std::min(0.1, std::sqrt(rep.grad_norm_N / std::max(g0, 1e-300)));
         Eigen::VectorXd rvec = -g, z = nt.llt.solve(rvec), d = z, Ad;
@@ -145,6 +148,9 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
         rep.solve_s += Seconds(t, Clock::now());
         if (have_step) ++rep.pcg_solves;
         used_pcg = have_step;
+        // PCG pays off while the Hessian stays close to the factorized one (warm re-solves, the last
+        // Newton iterations). Once it fails, the Hessian is moving: factorize for the rest of this solve.
+        skip_pcg = !have_step;
       }
       // 2) Fresh factorization of H + delta I (raising delta until CHOLMOD succeeds).
       if (!have_step) {
@@ -205,6 +211,11 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
         fresh_factor = false;
         nt.have_factor = false;
       }
+    }
+    if (accepted) {
+      if (alpha == 1.0) mu = std::max(delta / 4.0, 1e-12 * k_ref);
+      else if (alpha < 0.25) mu = std::min(delta * 8.0, 1e3 * k_ref);
+      else mu = delta;
     }
     if (!accepted) {
       rep.status = SolveStatus::kLineSearchFailed;

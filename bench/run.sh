@@ -1,0 +1,6 @@
+#!/usr/bin/env bash
+# Runs every benchmark with tabular counters; figures belong in docs/PERFORMANCE.md (with date and machine).
+set -euo pipefail
+build=${1:-build}
+nproc; lscpu | grep -E "Model name|^CPU\(s\)" || true
+"$build/bench/simulate_benchmark" --benchmark_counters_tabular=true "${@:2}"
