@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <functional>
 
 #include "core/scene/scene.h"
@@ -81,6 +82,8 @@ TEST_P(ClosedFormTest, UniaxialForceAndLateralStretchMatch) {
   const ClosedForm cf{lame.mu_Pa, lame.lambda_Pa, relaxation};
   const double expected = cf.Force(1 + strain, s.cloth.thickness_m, width);
   const double force = r->clamp_forces[1].force_N.z();
+  std::printf("closed form: strain %.2f  simulated %.9g N  closed form %.9g N  ratio %.7f\n", strain, force, expected,
+              force / expected);
   EXPECT_NEAR(force / expected, 1.0, 0.005) << "force " << force << " N, closed form " << expected << " N";
   EXPECT_NEAR(r->clamp_forces[0].force_N.z(), -force, 1e-6 * std::abs(force));  // equilibrium of the sample
 
