@@ -82,7 +82,7 @@ class Simulator {
   // Minimizes from *x (a warm start; clamped coordinates are set to their targets) and leaves the result in *x.
   SolveReport Solve(Positions* x, const SolverSettings& settings);
 
-  // Drops the stored factorization (the next Newton solve factorizes afresh).
+  // Drops the stored factorization and damping (the next Newton solve starts afresh).
   void ResetFactorization();
 
  private:
