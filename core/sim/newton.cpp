@@ -44,7 +44,7 @@ struct Simulator::Newton {
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Upper> llt;
   bool analyzed = false;
   bool have_factor = false;
-  double mu = 0;  // damping at the end of the last solve: a warm re-solve starts from it
+  double mu = 0;  // largest damping with which the last solve took a full step: a warm re-solve starts there
   Eigen::SparseMatrix<double> H;
 };
 
@@ -98,9 +98,11 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   // Levenberg-Marquardt damping delta (N/m), adapted to how well the last step's quadratic model held:
   // shrinks after full steps (so it vanishes at convergence), grows after short ones. It bounds the steps
   // along the model's singular modes (slack cloth, sliding on the body, free translations). A warm
-  // re-solve starts from the damping the last solve ended with: the soft modes are still there.
+  // re-solve starts from the largest damping with which the last solve took full steps: the soft modes
+  // are still there, and the new design moves the state more than the last converging steps did.
   const double k_ref = sys.stiffness_scale_N_per_m();
   double mu = nt.mu > 0 ? nt.mu : 1e-4 * k_ref;
+  double mu_full_max = 0;
   bool skip_pcg = false;
   Positions trial;
   Eigen::VectorXd g_trial_full;
@@ -201,9 +203,6 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
         E_new = sys.Evaluate(trial, nullptr, nullptr);
         ++rep.energy_evaluations;
         if (E_new <= E + 1e-4 * alpha * slope) { accepted = true; break; }
-        // A factorized step that must shrink below a tenth means the damping is too small for the
-        // model's soft modes: retry with more damping (a trust region shrinking) instead of crawling.
-        if (fresh_factor && alpha < 0.1 && attempt < 7) break;
         // Near the solution energy differences drown in round-off; a full step that does not raise E
         // beyond round-off is still taken when it reduces the residual.
         if (ls == 0 && std::isfinite(E_new) && E_new - E <= 1e-12 * std::abs(E)) {
@@ -215,16 +214,21 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       rep.line_search_s += Seconds(t, Clock::now());
       if (!accepted) {
         // Retry with a fresh factorization and a larger regularization (a shorter, more gradient-like step).
-        if (fresh_factor) delta *= 10.0;
+        if (fresh_factor) delta *= 100.0;
         fresh_factor = false;
         nt.have_factor = false;
       }
     }
     if (accepted) {
-      if (alpha == 1.0) mu = std::max(delta / 1.5, 1e-12 * k_ref);
-      else if (alpha < 0.25) mu = std::min(delta * 8.0, 1e3 * k_ref);
-      else mu = delta;
-      nt.mu = mu;
+      if (alpha == 1.0) {
+        mu = std::max(delta / 4.0, 1e-12 * k_ref);
+        mu_full_max = std::max(mu_full_max, delta);
+        nt.mu = mu_full_max;
+      } else if (alpha < 0.25) {
+        mu = std::min(delta * 8.0, 1e3 * k_ref);
+      } else {
+        mu = delta;
+      }
     }
     if (!accepted) {
       rep.status = SolveStatus::kLineSearchFailed;
