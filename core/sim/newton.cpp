@@ -45,6 +45,11 @@ struct Simulator::Newton {
   bool analyzed = false;
   bool have_factor = false;
   double mu = 0;  // largest damping with which the last solve took a full step: a warm re-solve starts there
+  // PCG on an old factorization pays only while the Hessian changes little between steps; on scenes
+  // where it keeps failing (relaxed cloth with contact switching) the attempts are pure cost. After two
+  // failures in a row it is skipped, and probed again every eighth solve.
+  int pcg_failures_in_row = 0;
+  int solves_since_probe = 0;
   Eigen::SparseMatrix<double> H;
 };
 
@@ -58,6 +63,8 @@ Simulator::~Simulator() = default;
 void Simulator::ResetFactorization() {
   newton_->have_factor = false;
   newton_->mu = 0;
+  newton_->pcg_failures_in_row = 0;
+  newton_->solves_since_probe = 0;
 }
 
 SolveReport Simulator::Solve(Positions* x, const SolverSettings& settings) {
@@ -103,6 +110,11 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   const double k_ref = sys.stiffness_scale_N_per_m();
   double mu = nt.mu > 0 ? nt.mu : 1e-4 * k_ref;
   double mu_full_max = 0;
+  bool pcg_allowed = nt.pcg_failures_in_row < 2;
+  if (!pcg_allowed && ++nt.solves_since_probe >= 8) {
+    pcg_allowed = true;
+    nt.solves_since_probe = 0;
+  }
   bool skip_pcg = false;
   Positions trial;
   Eigen::VectorXd g_trial_full;
@@ -130,7 +142,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       Eigen::VectorXd p;
       bool have_step = false;
       // 1) Conjugate gradients preconditioned by the previous factorization.
-      if (settings.reuse_factorization && nt.have_factor && !fresh_factor && attempt == 0 && !skip_pcg) {
+      if (settings.reuse_factorization && pcg_allowed && nt.have_factor && !fresh_factor && attempt == 0 && !skip_pcg) {
         t = Clock::now();
         const double eta = std::min(0.1, std::sqrt(rep.grad_norm_N / std::max(g0, 1e-300)));
         Eigen::VectorXd rvec = -g, z = nt.llt.solve(rvec), d = z, Ad;
@@ -158,6 +170,8 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
         // PCG pays off while the Hessian stays close to the factorized one (warm re-solves, the last
         // Newton iterations). Once it fails, the Hessian is moving: factorize for the rest of this solve.
         skip_pcg = !have_step;
+        nt.pcg_failures_in_row = have_step ? 0 : nt.pcg_failures_in_row + 1;
+        if (nt.pcg_failures_in_row >= 2) pcg_allowed = false;
       }
       // 2) Fresh factorization of H + delta I (raising delta until CHOLMOD succeeds).
       if (!have_step) {

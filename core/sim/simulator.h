@@ -3,10 +3,11 @@
 // Methods:
 //  - kNewton (default): projected Newton. Analytic PSD-projected Hessian in a fixed sparse pattern,
 //    CHOLMOD supernodal Cholesky with the symbolic analysis done once per Simulator, backtracking
-//    Armijo line search on E, adaptive Levenberg-Marquardt regularization H + delta I that shrinks
-//    with the residual (it only guards the singular modes: slack triangles, sliding on the body, free
-//    translations), and reuse of the previous factorization as a preconditioner for conjugate gradients
-//    when the Hessian has changed little (warm re-solves after a design change).
+//    Armijo line search on E, adaptive Levenberg-Marquardt damping H + delta I that shrinks after full
+//    steps and vanishes at convergence (it guards the singular modes: slack triangles, sliding on the
+//    body, free translations) and carries over to warm re-solves, and reuse of the previous
+//    factorization as a preconditioner for conjugate gradients when the Hessian has changed little
+//    (warm re-solves after a design change).
 //  - kLbfgs: L-BFGS with a strong Wolfe line search, the paper's method, for comparison.
 //
 // Convergence (scale-aware): || dE/dx over free coordinates ||_2 <= tolerance_N, with
