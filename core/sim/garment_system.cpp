@@ -185,19 +185,23 @@ void GarmentSystem::ApplyClamps(Positions* x) const {
 
 void GarmentSystem::ApplyClampsSmoothly(Positions* x) const {
   const int nv = num_vertices();
-  // Unit-weight graph Laplacian over mesh edges (each interior edge seen twice; weights cancel in the ratio).
-  std::vector<std::vector<int>> nbrs(nv);
-  for (int f = 0; f < num_faces(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int a = model_.faces(f, k), b = model_.faces(f, (k + 1) % 3);
-      nbrs[a].push_back(b);
-      nbrs[b].push_back(a);
-    }
+  // Unit-weight graph Laplacian over mesh edges (each interior edge seen twice; weights cancel in the
+  // ratio), built only when some clamp actually has to move: warm re-solves skip all of this.
+  std::vector<std::vector<int>> nbrs;
   for (int k = 0; k < 3; ++k) {
     bool moves = false;
-    for (int v = 0; v < nv; ++v)
+    for (int v = 0; v < nv && !moves; ++v)
       if (free_index_[3 * v + k] < 0 && clamp_target_(v, k) != (*x)(v, k)) moves = true;
     if (!moves) continue;
+    if (nbrs.empty()) {
+      nbrs.resize(nv);
+      for (int f = 0; f < num_faces(); ++f)
+        for (int e = 0; e < 3; ++e) {
+          const int a = model_.faces(f, e), b = model_.faces(f, (e + 1) % 3);
+          nbrs[a].push_back(b);
+          nbrs[b].push_back(a);
+        }
+    }
     std::vector<int> unknown(nv, -1);
     int n = 0;
     for (int v = 0; v < nv; ++v)
