@@ -60,7 +60,7 @@ BENCHMARK(BM_NewtonCold)
     ->Iterations(1);
 
 // Warm: starting fully reinforced, each timed step turns another 1.5 % of the triangles to cloth and
-// re-solves from the previous equilibrium, reusing the previous factorization.
+// re-solves from the previous equilibrium with the same simulator (method: see BENCHMARK below).
 void BM_WarmResolve(benchmark::State& state) {
   const SceneSpec s = Sleeve(true);
   auto model = BuildGarmentModel(s);
