@@ -12,9 +12,10 @@ build: setup
 	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
 	cmake --build $(BUILD) -j$(JOBS)
 
-# The main job. Until the design service exists this is the built-in contact demo: a sleeve on a flexing limb.
+# The main job. Until the design service exists: the built-in arm-flexion scene (parametric body, sleeve
+# over the elbow flexed from 15 to 100 degrees), simulated in its deformed pose.
 demo: build
-	$(BUILD)/client/kgd simulate sleeve_on_limb --out $(BUILD)/sleeve_on_limb.ply
+	$(BUILD)/client/kgd simulate arm_flexion --out $(BUILD)/arm_flexion.ply
 
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j$(JOBS)

@@ -4,3 +4,4 @@ set -euo pipefail
 build=${1:-build}
 nproc; lscpu | grep -E "Model name|^CPU\(s\)" || true
 "$build/bench/simulate_benchmark" --benchmark_counters_tabular=true "${@:2}"
+"$build/bench/body_benchmark" --benchmark_counters_tabular=true "${@:2}"

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/mesh/mesh_io.h"
+#include "core/scene/paper_scenes.h"
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
 
@@ -21,6 +22,8 @@ struct SimulateOptions {
   double grad_tol = 0;
   int max_iterations = -1;
   bool verbose = false;
+  bool frames = false;
+  std::string design;
 };
 
 // A scene argument is a scene file if it exists, else the name of a built-in scene.
@@ -40,6 +43,7 @@ nlohmann::json ResultJson(const SceneSpec& scene, const SimulationResult& r) {
   j["membrane_energy_J"] = r.solve.energies.membrane_J;
   j["contact_energy_J"] = r.solve.energies.contact_J;
   j["attachment_energy_J"] = r.solve.energies.attachment_J;
+  j["fold_barrier_energy_J"] = r.solve.energies.fold_barrier_J;
   j["reinforced_energy_J"] = r.reinforced_energy_J;
   j["reinforced_area_m2"] = r.reinforced_area_m2;
   j["reinforced_density_J_per_m2"] = r.reinforced_density_J_per_m2;
@@ -67,8 +71,8 @@ void PrintHuman(const SceneSpec& scene, const SimulationResult& r) {
   std::printf("scene                 %s (%ld vertices, %ld faces)\n", scene.name.c_str(), (long)r.positions.rows(),
               (long)r.face_density_Pa.size());
   std::printf("status                %s%s%s\n", ToString(s.status), s.message.empty() ? "" : ": ", s.message.c_str());
-  std::printf("total energy          %.9g J  (membrane %.6g, contact %.6g, attachments %.6g)\n", s.energy_J,
-              s.energies.membrane_J, s.energies.contact_J, s.energies.attachment_J);
+  std::printf("total energy          %.9g J  (membrane %.6g, contact %.6g, attachments %.6g, fold barrier %.3g)\n", s.energy_J,
+              s.energies.membrane_J, s.energies.contact_J, s.energies.attachment_J, s.energies.fold_barrier_J);
   std::printf("reinforced energy     %.6g J over %.6g m^2 (%.1f %% of the garment)\n", r.reinforced_energy_J,
               r.reinforced_area_m2, r.garment_area_m2 > 0 ? 100.0 * r.reinforced_area_m2 / r.garment_area_m2 : 0.0);
   std::printf("reinforced density    %.6g J/m^2\n", r.reinforced_density_J_per_m2);
@@ -82,6 +86,58 @@ void PrintHuman(const SceneSpec& scene, const SimulationResult& r) {
     std::printf("distance to body      min %.3g mm, max %.3g mm (IMLS field, where defined)\n", 1e3 * r.min_phi_m,
                 1e3 * r.max_phi_m);
   if (r.inverted_faces > 0) std::printf("inverted faces        %d\n", r.inverted_faces);
+}
+
+Status WriteResultPly(const std::string& path, const SceneSpec& scene, const SimulationResult& r) {
+  Eigen::VectorXd design(scene.design.size());
+  for (size_t f = 0; f < scene.design.size(); ++f) design[f] = scene.design[f];
+  return WritePly(path, r.positions, scene.garment.faces,
+                  {{"design", design, true}, {"energy_density_Pa", r.face_density_Pa, false}});
+}
+
+// `--out result.ply` with frames: result_frame_01.ply, result_frame_02.ply, ...
+std::string FramePath(const std::string& out, int frame) {
+  const std::filesystem::path p(out);
+  char suffix[32];
+  std::snprintf(suffix, sizeof suffix, "_frame_%02d", frame + 1);
+  return (p.parent_path() / (p.stem().string() + suffix + p.extension().string())).string();
+}
+
+int RunFrames(const SimulateOptions& o, const SceneSpec& scene) {
+  nlohmann::json frames = nlohmann::json::array();
+  bool all_converged = true;
+  Status write_status = Status::Ok();
+  if (!scene.motion || scene.motion->frames.empty()) {
+    std::cerr << "kgd simulate: scene '" << scene.name << "' has no motion frames (give body.frames with garment.region)\n";
+    return 2;
+  }
+  if (!o.json)
+    std::printf("%-6s %-14s %-16s %-14s %-10s %-9s %-10s %s\n", "frame", "status", "energy_J", "reinforced_J", "min_phi_mm",
+                "inverted", "seconds", "iterations");
+  Result<std::vector<SimulationResult>> r = SimulateFrames(scene, [&](int k, const SimulationResult& fr) {
+    all_converged &= fr.solve.converged();
+    if (o.json) {
+      nlohmann::json j = ResultJson(scene, fr);
+      j["frame"] = k + 1;
+      frames.push_back(j);
+    } else {
+      std::printf("%-6d %-14s %-16.9g %-14.6g %-10.3g %-9d %-10.3f %d\n", k + 1, ToString(fr.solve.status), fr.solve.energy_J,
+                  fr.reinforced_energy_J, 1e3 * fr.min_phi_m, fr.inverted_faces, fr.solve.seconds, fr.solve.iterations);
+      std::fflush(stdout);
+    }
+    if (!o.out.empty() && write_status.ok()) write_status = WriteResultPly(FramePath(o.out, k), scene, fr);
+  });
+  if (!r.ok()) {
+    std::cerr << "kgd simulate: " << r.message() << "\n";
+    return 2;
+  }
+  if (o.json) std::cout << nlohmann::json{{"scene", scene.name}, {"frames", frames}}.dump() << std::endl;
+  if (!write_status.ok()) {
+    std::cerr << "kgd simulate: " << write_status.message() << "\n";
+    return 2;
+  }
+  if (!o.out.empty() && !o.json) std::printf("wrote                 %s ... %s\n", FramePath(o.out, 0).c_str(), FramePath(o.out, static_cast<int>(r->size()) - 1).c_str());
+  return all_converged ? 0 : 3;
 }
 
 int RunSimulate(const SimulateOptions& o) {
@@ -98,6 +154,9 @@ int RunSimulate(const SimulateOptions& o) {
       std::fprintf(stderr, "iter %4d  E %.12g J  |g| %.3e N  alpha %.3g  delta %.3g%s\n", i.iteration, i.energy_J,
                    i.grad_norm_N, i.step_length, i.regularization, i.used_pcg ? "  (pcg)" : "");
     };
+  if (o.design == "all_cloth") scene->design.assign(scene->design.size(), kCloth);
+  if (o.design == "all_reinforced") scene->design.assign(scene->design.size(), kReinforced);
+  if (o.frames) return RunFrames(o, *scene);
   Result<SimulationResult> r = SimulateScene(*scene);
   if (!r.ok()) {
     std::cerr << "kgd simulate: " << r.message() << "\n";
@@ -106,10 +165,7 @@ int RunSimulate(const SimulateOptions& o) {
   if (o.json) std::cout << ResultJson(*scene, *r).dump() << std::endl;
   else PrintHuman(*scene, *r);
   if (!o.out.empty()) {
-    Eigen::VectorXd design(scene->design.size());
-    for (size_t f = 0; f < scene->design.size(); ++f) design[f] = scene->design[f];
-    const Status s = WritePly(o.out, r->positions, scene->garment.faces,
-                              {{"design", design, true}, {"energy_density_Pa", r->face_density_Pa, false}});
+    const Status s = WriteResultPly(o.out, *scene, *r);
     if (!s.ok()) {
       std::cerr << "kgd simulate: " << s.message() << "\n";
       return 2;
@@ -127,6 +183,11 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
   sim->add_option("scene", opts->scene, "Scene file (JSON) or the name of a built-in scene (see `kgd scenes`)")->required();
   sim->add_flag("--json", opts->json, "Print the result as one JSON object (SI units)");
   sim->add_flag("-v,--verbose", opts->verbose, "Print every solver iteration to stderr");
+  sim->add_flag("--frames", opts->frames,
+                "Simulate every frame of the scene's motion in order (each warm-started from the previous); "
+                "with --out, one PLY per frame (NAME_frame_01.ply, ...)");
+  sim->add_option("--design", opts->design, "Override the design: all_cloth or all_reinforced")
+      ->check(CLI::IsMember({"all_cloth", "all_reinforced"}));
   sim->add_option("--out", opts->out, "Write the equilibrium as PLY with per-face design and energy density");
   sim->add_option("--method", opts->method, "Override the solver: newton or lbfgs")->check(CLI::IsMember({"newton", "lbfgs"}));
   sim->add_option("--grad-tol", opts->grad_tol, "Override the dimensionless gradient tolerance (default 1e-7)")
@@ -136,7 +197,14 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
 
   CLI::App* scenes = app.add_subcommand("scenes", "List the built-in scenes");
   scenes->callback([exit_code] {
-    for (const std::string& n : BuiltinSceneNames()) std::cout << n << "\n";
+    std::printf("%-26s %-12s %-7s %-7s %s\n", "name", "garment", "budget", "frames", "description");
+    for (const PaperMotion& m : PaperMotions())
+      std::printf("%-26s %-12s %-7.2f %-7d %s\n", m.name.c_str(), m.garment.c_str(), m.budget, m.frames, m.description.c_str());
+    for (const std::string& n : BuiltinSceneNames()) {
+      bool paper = false;
+      for (const PaperMotion& m : PaperMotions()) paper |= m.name == n;
+      if (!paper) std::printf("%-26s %-12s %-7s %-7s %s\n", n.c_str(), "-", "-", "-", n.rfind("pull_test", 0) == 0 ? "pull test of the paper's 2D validation" : "sleeve on a capsule limb (simulator checks)");
+    }
     *exit_code = 0;
   });
 

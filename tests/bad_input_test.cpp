@@ -94,7 +94,7 @@ TEST_F(BadInput, MalformedJsonAndMissingFiles) {
   ExpectError(R"({"garment": {"rest": "good.obj"})", "scene.json: not valid JSON");
   ExpectError(R"({"garment": {"rest": "nowhere.obj"}})", "nowhere.obj: cannot open file");
   ExpectError(R"({"garment": {"rest": "good.obj"}, "effects": {"contact": "unilateral"}})",
-              "body: missing, but effects.contact is 'unilateral'");
+              "body.mesh: missing, but effects.contact is 'unilateral'");
   const CommandRun r = Kgd("simulate " + (dir_ / "absent.json").string());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("absent.json: no such scene file"), std::string::npos) << r.output;
@@ -103,6 +103,87 @@ TEST_F(BadInput, MalformedJsonAndMissingFiles) {
 TEST_F(BadInput, NanInMaterial) {
   ExpectError(R"({"garment": {"rest": "good.obj"}, "materials": {"cloth": {"thickness_m": -2}}})",
               "materials.cloth: thickness_m must be > 0");
+}
+
+// A 3 x 2 grid of 1 cm quads as a body "surface" (12 vertices, 12 faces), with optional changes.
+std::string GridObj(double lift_vertex5 = 0.0, bool collapse = false, bool drop_last_vertex = false, bool swap_face = false) {
+  std::string s;
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 4; ++i) {
+      if (drop_last_vertex && j == 2 && i == 3) continue;
+      const int v = j * 4 + i;
+      double x = 0.01 * i, y = 0.01 * j, z = v == 5 ? lift_vertex5 : 0.0;
+      if (collapse && v == 5) x = 0.0, y = 0.0;  // onto vertex 0: faces around it degenerate
+      s += "v " + std::to_string(x) + " " + std::to_string(y) + " " + std::to_string(z) + "\n";
+    }
+  int f = 0;
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 3; ++i, ++f) {
+      const int a = j * 4 + i + 1, b = a + 1, c = a + 4, d = c + 1;
+      if (drop_last_vertex && d == 12) continue;
+      s += "f " + std::to_string(a) + " " + std::to_string(b) + " " + std::to_string(d) + "\n";
+      if (swap_face && f == 0) s += "f " + std::to_string(a) + " " + std::to_string(c) + " " + std::to_string(d) + "\n";
+      else s += "f " + std::to_string(a) + " " + std::to_string(d) + " " + std::to_string(c) + "\n";
+    }
+  return s;
+}
+
+class ImportInput : public BadInput {
+ protected:
+  void SetUp() override {
+    BadInput::SetUp();
+    Write("rest.obj", GridObj());
+    Write("pose.obj", GridObj(0.002));
+    Write("region.txt", "0\n1\n2\n3\n");
+    Write("attach.txt", "0\n1\n");
+  }
+  std::string With(const std::string& body, const std::string& region = "region.txt", const std::string& attach = "attach.txt") {
+    return R"({"body": )" + body + R"(, "garment": {"region": ")" + region + R"(", "subdivisions": 1},
+              "attachments": {"body_faces": ")" + attach + R"("}, "effects": {"attachments": true}})";
+  }
+};
+
+TEST_F(ImportInput, GoodImportRuns) {
+  const CommandRun r = Kgd("simulate --json " + Scene(With(R"({"rest": "rest.obj", "deformed": "pose.obj", "frames": ["pose.obj"]})")));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("\"faces\":16"), std::string::npos) << r.output;  // 4 body faces, subdivided once
+  const CommandRun f = Kgd("simulate --frames --json " + Scene(With(R"({"rest": "rest.obj", "deformed": "pose.obj", "frames": ["pose.obj"]})")));
+  EXPECT_EQ(f.exit_code, 0) << f.output;
+  EXPECT_NE(f.output.find("\"frame\":1"), std::string::npos) << f.output;
+}
+
+TEST_F(ImportInput, PosesMustShareTheRestTopology) {
+  Write("short.obj", GridObj(0, false, true));
+  ExpectError(With(R"({"rest": "rest.obj", "deformed": "short.obj"})"), "short.obj: has 11 vertices but");
+  Write("swapped.obj", GridObj(0, false, false, true));
+  ExpectError(With(R"({"rest": "rest.obj", "deformed": "swapped.obj"})"), "swapped.obj: face 1 differs from face 1 of");
+  ExpectError(With(R"({"rest": "rest.obj", "deformed": "pose.obj", "frames": ["pose.obj", "short.obj"]})"), "short.obj: has 11 vertices");
+}
+
+TEST_F(ImportInput, DegenerateFacesAreNamed) {
+  Write("collapsed.obj", GridObj(0, true));
+  ExpectError(With(R"({"rest": "rest.obj", "deformed": "collapsed.obj"})"), "collapsed.obj: face");
+}
+
+TEST_F(ImportInput, RegionAndAttachmentIndicesAreChecked) {
+  Write("far.txt", "0\n1\n99\n");
+  ExpectError(With(R"({"rest": "rest.obj", "deformed": "pose.obj"})", "far.txt"), "99");
+  Write("outside.txt", "0\n5\n");
+  ExpectError(With(R"({"rest": "rest.obj", "deformed": "pose.obj"})", "region.txt", "outside.txt"),
+              "outside.txt: entry 2: body face 5 is not part of the garment region");
+  Write("pieces.txt", "0\n1\n10\n11\n");
+  ExpectError(With(R"({"rest": "rest.obj", "deformed": "pose.obj"})", "pieces.txt", "attach.txt"),
+              "pieces.txt: the garment region is 2 separate pieces, not one: 2 faces including body face 0; 2 faces including body face 10");
+  Write("words.txt", "0\nseven\n");
+  ExpectError(With(R"({"rest": "rest.obj", "deformed": "pose.obj"})", "words.txt"), "words.txt:2");
+}
+
+TEST_F(ImportInput, MixedGarmentKindsAreRefused) {
+  ExpectError(R"({"body": {"rest": "rest.obj", "deformed": "pose.obj"}, "garment": {"region": "region.txt", "rest": "good.obj"}})",
+              "garment.rest: not allowed with garment.region");
+  ExpectError(R"({"body": {"rest": "rest.obj"}, "garment": {"region": "region.txt"}})", "body.deformed: missing");
+  ExpectError(R"({"body": {"rest": "rest.obj", "deformed": "pose.obj"}, "garment": {"rest": "good.obj"}})",
+              "body.rest: only allowed with garment.region");
 }
 
 }  // namespace

@@ -340,7 +340,7 @@ Status WritePly(const std::string& path, const Positions& x, const Faces& faces,
 Status WriteObj(const std::string& path, const Positions& x, const Faces& faces) {
   std::ofstream out(path);
   if (!out) return Status::Error(path + ": cannot open for writing");
-  out.precision(9);
+  out.precision(17);  // round-trips doubles exactly: an exported scene reproduces its source
   for (Eigen::Index v = 0; v < x.rows(); ++v) out << "v " << x(v, 0) << ' ' << x(v, 1) << ' ' << x(v, 2) << '\n';
   for (Eigen::Index f = 0; f < faces.rows(); ++f)
     out << "f " << faces(f, 0) + 1 << ' ' << faces(f, 1) + 1 << ' ' << faces(f, 2) + 1 << '\n';

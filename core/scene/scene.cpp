@@ -1,6 +1,7 @@
 #include "core/scene/scene.h"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -8,6 +9,7 @@
 #include <sstream>
 
 #include "core/mesh/mesh_io.h"
+#include "core/scene/paper_scenes.h"
 #include "core/scene/shapes.h"
 
 namespace kgd {
@@ -38,7 +40,7 @@ class Reader {
   Status Number(const json& obj, const std::string& path, const char* key, double* out) const {
     if (!obj.contains(key)) return Status::Ok();
     const json& v = obj[key];
-    if (!v.is_number() || !std::isfinite(v.get<double>())) return Fail(path + "." + key, "must be a finite number");
+    if (!v.is_number() || !std::isfinite(v.get<double>())) return Fail(path.empty() ? key : path + "." + key, "must be a finite number");
     *out = v.get<double>();
     return Status::Ok();
   }
@@ -117,8 +119,8 @@ Result<SceneSpec> LoadScene(const std::string& path) {
   }
   const Reader r(path, fs::path(path).parent_path());
   SceneSpec s;
-  KGD_RETURN_IF_ERROR(r.CheckKeys(doc, "", {"name", "garment", "materials", "effects", "body", "contact",
-                                            "attachments", "clamps", "solver"}));
+  KGD_RETURN_IF_ERROR(r.CheckKeys(doc, "", {"name", "description", "budget", "garment", "materials", "effects", "body",
+                                            "contact", "attachments", "clamps", "solver"}));
   if (doc.contains("name")) {
     if (!doc["name"].is_string()) return r.Fail("name", "must be a string");
     s.name = doc["name"].get<std::string>();
@@ -129,7 +131,8 @@ Result<SceneSpec> LoadScene(const std::string& path) {
   // Effects first: they decide what else is read.
   if (doc.contains("effects")) {
     const json& e = doc["effects"];
-    KGD_RETURN_IF_ERROR(r.CheckKeys(e, "effects", {"membrane", "relaxation", "contact", "attachments", "clamps"}));
+    KGD_RETURN_IF_ERROR(r.CheckKeys(e, "effects", {"membrane", "relaxation", "fold_barrier", "contact", "attachments", "clamps"}));
+    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "fold_barrier", &s.effects.fold_barrier));
     KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "membrane", &s.effects.membrane));
     KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "attachments", &s.effects.attachments));
     KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "clamps", &s.effects.clamps));
@@ -141,26 +144,102 @@ Result<SceneSpec> LoadScene(const std::string& path) {
                         : contact == "unilateral" ? ContactModel::kUnilateral : ContactModel::kBilateral;
   }
 
-  // Garment.
-  if (!doc.contains("garment")) return r.Fail("garment", "missing (the garment's rest mesh is required)");
+  // Garment: a mesh of its own, or cut from the body's motion.
+  if (!doc.contains("garment"))
+    return r.Fail("garment", "missing (give garment.rest, or garment.region with body.rest and body.deformed)");
   const json& g = doc["garment"];
-  KGD_RETURN_IF_ERROR(r.CheckKeys(g, "garment", {"rest", "initial", "design"}));
-  if (!g.contains("rest")) return r.Fail("garment.rest", "missing");
-  Result<TriMesh> rest = r.Mesh(g["rest"], "garment.rest");
-  if (!rest.ok()) return rest.status();
-  s.garment = std::move(rest).value();
-  KGD_RETURN_IF_ERROR(ValidateMesh(s.garment.vertices, s.garment.faces, r.Resolve(g["rest"].get<std::string>())));
-  s.initial = s.garment.vertices;
-  if (g.contains("initial")) {
-    Result<TriMesh> init = r.Mesh(g["initial"], "garment.initial");
-    if (!init.ok()) return init.status();
-    const std::string init_file = r.Resolve(g["initial"].get<std::string>());
-    if (init->vertices.rows() != s.garment.vertices.rows())
-      return Status::Error(init_file + ": has " + std::to_string(init->vertices.rows()) +
-                           " vertices but the rest mesh has " + std::to_string(s.garment.vertices.rows()));
-    if (init->faces.rows() != s.garment.faces.rows() || init->faces != s.garment.faces)
-      return Status::Error(init_file + ": faces differ from the rest mesh (the two poses must share one topology)");
-    s.initial = init->vertices;
+  KGD_RETURN_IF_ERROR(r.CheckKeys(g, "garment", {"rest", "initial", "region", "subdivisions", "design"}));
+  const json no_object = json::object();
+  const json& b = doc.contains("body") ? doc["body"] : no_object;
+  KGD_RETURN_IF_ERROR(r.CheckKeys(b, "body", {"mesh", "rest", "deformed", "frames", "support_scale"}));
+  KGD_RETURN_IF_ERROR(r.Number(b, "body", "support_scale", &s.body_support_scale));
+  const json& a = doc.contains("attachments") ? doc["attachments"] : no_object;
+  KGD_RETURN_IF_ERROR(r.CheckKeys(a, "attachments", {"faces", "body_faces", "stiffness_N_per_m"}));
+  KGD_RETURN_IF_ERROR(r.Number(a, "attachments", "stiffness_N_per_m", &s.attachment_stiffness_N_per_m));
+  if (g.contains("region")) {
+    for (const char* k : {"rest", "initial"})
+      if (g.contains(k))
+        return r.Fail(std::string("garment.") + k, "not allowed with garment.region (a garment cut from the body takes its shapes from body.rest and body.deformed)");
+    if (b.contains("mesh")) return r.Fail("body.mesh", "not allowed with garment.region (give body.rest and body.deformed)");
+    if (a.contains("faces")) return r.Fail("attachments.faces", "not allowed with garment.region (give attachments.body_faces, body faces)");
+    for (const char* k : {"rest", "deformed"})
+      if (!b.contains(k)) return r.Fail(std::string("body.") + k, "missing (required with garment.region)");
+    Result<TriMesh> rest = r.Mesh(b["rest"], "body.rest");
+    if (!rest.ok()) return rest.status();
+    const std::string rest_file = r.Resolve(b["rest"].get<std::string>());
+    BodyMotion motion;
+    motion.faces = rest->faces;
+    motion.rest = rest->vertices;
+    std::vector<std::string> names = {rest_file};
+    // Every other pose: same vertex count and the very same faces as the rest mesh.
+    auto read_pose = [&](const json& v, const std::string& key, Positions* out) -> Status {
+      Result<TriMesh> pose = r.Mesh(v, key);
+      if (!pose.ok()) return pose.status();
+      const std::string file = r.Resolve(v.get<std::string>());
+      names.push_back(file);
+      if (pose->vertices.rows() != motion.rest.rows())
+        return Status::Error(file + ": has " + std::to_string(pose->vertices.rows()) + " vertices but " + rest_file + " has " +
+                             std::to_string(motion.rest.rows()) + " (all poses must share one topology)");
+      if (pose->faces.rows() != motion.faces.rows())
+        return Status::Error(file + ": has " + std::to_string(pose->faces.rows()) + " faces but " + rest_file + " has " +
+                             std::to_string(motion.faces.rows()) + " (all poses must share one topology)");
+      for (Eigen::Index f = 0; f < motion.faces.rows(); ++f)
+        if (pose->faces.row(f) != motion.faces.row(f))
+          return Status::Error(file + ": face " + std::to_string(f) + " differs from face " + std::to_string(f) + " of " + rest_file +
+                               " (all poses must share one topology)");
+      *out = pose->vertices;
+      return Status::Ok();
+    };
+    KGD_RETURN_IF_ERROR(read_pose(b["deformed"], "body.deformed", &motion.deformed));
+    if (b.contains("frames")) {
+      const json& fr = b["frames"];
+      if (!fr.is_array() || fr.empty()) return r.Fail("body.frames", "must be a non-empty array of mesh file paths");
+      for (size_t i = 0; i < fr.size(); ++i) {
+        motion.frames.emplace_back();
+        KGD_RETURN_IF_ERROR(read_pose(fr[i], "body.frames[" + std::to_string(i) + "]", &motion.frames.back()));
+      }
+    }
+    KGD_RETURN_IF_ERROR(ValidateBodyMotion(motion, names));
+    s.motion = std::move(motion);
+    Result<std::vector<int>> region = r.Indices(g["region"], "garment.region");
+    if (!region.ok()) return region.status();
+    s.garment_region = std::move(region).value();
+    double subdivisions = 0;
+    KGD_RETURN_IF_ERROR(r.Number(g, "garment", "subdivisions", &subdivisions));
+    if (subdivisions != std::floor(subdivisions) || subdivisions < 0 || subdivisions > 4)
+      return r.Fail("garment.subdivisions", "must be an integer in [0, 4]");
+    s.subdivisions = static_cast<int>(subdivisions);
+    std::string attach_name = r.file() + ": attachments.body_faces";
+    if (a.contains("body_faces")) {
+      Result<std::vector<int>> faces = r.Indices(a["body_faces"], "attachments.body_faces");
+      if (!faces.ok()) return faces.status();
+      s.attachment_body_faces = std::move(faces).value();
+      if (a["body_faces"].is_string()) attach_name = r.Resolve(a["body_faces"].get<std::string>());
+    }
+    const std::string region_name = g["region"].is_string() ? r.Resolve(g["region"].get<std::string>()) : r.file() + ": garment.region";
+    KGD_RETURN_IF_ERROR(CutGarmentFromMotion(&s, region_name, attach_name));
+  } else {
+    if (!g.contains("rest")) return r.Fail("garment.rest", "missing (or give garment.region to cut the garment from the body)");
+    if (g.contains("subdivisions")) return r.Fail("garment.subdivisions", "only allowed with garment.region");
+    for (const char* k : {"rest", "deformed", "frames"})
+      if (b.contains(k)) return r.Fail(std::string("body.") + k, "only allowed with garment.region (for a garment of its own give body.mesh)");
+    if (a.contains("body_faces")) return r.Fail("attachments.body_faces", "only allowed with garment.region (give attachments.faces)");
+    Result<TriMesh> rest = r.Mesh(g["rest"], "garment.rest");
+    if (!rest.ok()) return rest.status();
+    s.garment = std::move(rest).value();
+    KGD_RETURN_IF_ERROR(ValidateMesh(s.garment.vertices, s.garment.faces, r.Resolve(g["rest"].get<std::string>())));
+    s.initial = s.garment.vertices;
+    if (g.contains("initial")) {
+      Result<TriMesh> init = r.Mesh(g["initial"], "garment.initial");
+      if (!init.ok()) return init.status();
+      const std::string init_file = r.Resolve(g["initial"].get<std::string>());
+      if (init->vertices.rows() != s.garment.vertices.rows())
+        return Status::Error(init_file + ": has " + std::to_string(init->vertices.rows()) +
+                             " vertices but the rest mesh has " + std::to_string(s.garment.vertices.rows()));
+      if (init->faces.rows() != s.garment.faces.rows() || init->faces != s.garment.faces)
+        return Status::Error(init_file + ": faces differ from the rest mesh (the two poses must share one topology)");
+      s.initial = init->vertices;
+    }
   }
   const int nf = static_cast<int>(s.garment.faces.rows());
   s.design.assign(nf, kCloth);
@@ -180,6 +259,12 @@ Result<SceneSpec> LoadScene(const std::string& path) {
       }
     }
   }
+  if (doc.contains("description")) {
+    if (!doc["description"].is_string()) return r.Fail("description", "must be a string");
+    s.description = doc["description"].get<std::string>();
+  }
+  KGD_RETURN_IF_ERROR(r.Number(doc, "", "budget", &s.budget));
+  if (!(s.budget > 0 && s.budget <= 1)) return r.Fail("budget", "must be in (0, 1] (a fraction of the garment area)");
 
   // Materials.
   if (doc.contains("materials")) {
@@ -197,36 +282,24 @@ Result<SceneSpec> LoadScene(const std::string& path) {
     KGD_RETURN_IF_ERROR(r.CheckKeys(doc["contact"], "contact", {"stiffness_N_per_m"}));
     KGD_RETURN_IF_ERROR(r.Number(doc["contact"], "contact", "stiffness_N_per_m", &s.contact_stiffness_N_per_m));
   }
-  if (doc.contains("body")) {
-    const json& b = doc["body"];
-    KGD_RETURN_IF_ERROR(r.CheckKeys(b, "body", {"mesh", "support_scale"}));
-    KGD_RETURN_IF_ERROR(r.Number(b, "body", "support_scale", &s.body_support_scale));
-    if (s.effects.contact != ContactModel::kNone) {
-      if (!b.contains("mesh")) return r.Fail("body.mesh", "missing");
-      Result<TriMesh> body = r.Mesh(b["mesh"], "body.mesh");
-      if (!body.ok()) return body.status();
-      KGD_RETURN_IF_ERROR(ValidateMesh(body->vertices, body->faces, r.Resolve(b["mesh"].get<std::string>())));
-      s.body = std::move(body).value();
-    }
+  if (!s.motion && s.effects.contact != ContactModel::kNone) {
+    if (!b.contains("mesh")) return r.Fail("body.mesh", "missing, but effects.contact is '" +
+                                                            std::string(s.effects.contact == ContactModel::kUnilateral ? "unilateral" : "bilateral") + "'");
+    Result<TriMesh> body = r.Mesh(b["mesh"], "body.mesh");
+    if (!body.ok()) return body.status();
+    KGD_RETURN_IF_ERROR(ValidateMesh(body->vertices, body->faces, r.Resolve(b["mesh"].get<std::string>())));
+    s.body = std::move(body).value();
   }
-  if (s.effects.contact != ContactModel::kNone && !s.body)
-    return r.Fail("body", "missing, but effects.contact is '" +
-                              std::string(s.effects.contact == ContactModel::kUnilateral ? "unilateral" : "bilateral") + "'");
 
-  // Attachments.
-  if (doc.contains("attachments")) {
-    const json& a = doc["attachments"];
-    KGD_RETURN_IF_ERROR(r.CheckKeys(a, "attachments", {"faces", "stiffness_N_per_m"}));
-    KGD_RETURN_IF_ERROR(r.Number(a, "attachments", "stiffness_N_per_m", &s.attachment_stiffness_N_per_m));
-    if (a.contains("faces")) {
-      Result<std::vector<int>> faces = r.Indices(a["faces"], "attachments.faces");
-      if (!faces.ok()) return faces.status();
-      KGD_RETURN_IF_ERROR(ValidateFaceList(*faces, nf, r.file() + ": attachments.faces"));
-      s.attachment_faces = std::move(faces).value();
-    }
+  // Attachments of a garment of its own (a cut garment's come from attachments.body_faces).
+  if (a.contains("faces")) {
+    Result<std::vector<int>> faces = r.Indices(a["faces"], "attachments.faces");
+    if (!faces.ok()) return faces.status();
+    KGD_RETURN_IF_ERROR(ValidateFaceList(*faces, nf, r.file() + ": attachments.faces"));
+    s.attachment_faces = std::move(faces).value();
   }
   if (s.effects.attachments && s.attachment_faces.empty())
-    return r.Fail("attachments.faces", "missing or empty, but effects.attachments is true");
+    return r.Fail(s.motion ? "attachments.body_faces" : "attachments.faces", "missing or empty, but effects.attachments is true");
 
   // Clamps.
   if (doc.contains("clamps")) {
@@ -313,9 +386,10 @@ Result<GarmentModel> BuildGarmentModel(const SceneSpec& s) {
     m.attachments.faces = s.attachment_faces;
     m.attachments.stiffness_N_per_m = s.attachment_stiffness_N_per_m;
     if (Status st = ValidateFaceList(s.attachment_faces, s.garment.faces.rows(), "attachments.faces"); !st.ok()) return st;
-    m.attachments.anchors = FaceCentroids(s.initial, s.garment.faces, s.attachment_faces);
+    m.attachments.anchors = FaceCentroids(s.on_body.rows() ? s.on_body : s.initial, s.garment.faces, s.attachment_faces);
   }
   if (s.effects.clamps) m.clamps = s.clamps;
+  if (s.effects.fold_barrier && s.on_body.rows()) m.fold_reference = s.on_body;
   if (s.effects.contact != ContactModel::kNone) {
     if (!s.body) return Status::Error("effects.contact is on but the scene has no body");
     BodyFieldSettings bs;
@@ -326,6 +400,33 @@ Result<GarmentModel> BuildGarmentModel(const SceneSpec& s) {
   }
   if (Status st = ValidateModel(m); !st.ok()) return st;
   return m;
+}
+
+Status CutGarmentFromMotion(SceneSpec* s, const std::string& region_name, const std::string& attachments_name) {
+  if (!s->motion) return Status::Error(region_name + ": the scene has no body motion to cut the garment from");
+  const BodyMotion& m = *s->motion;
+  Result<GarmentCut> cut = CutGarment(m.faces, m.rest, s->garment_region, s->attachment_body_faces, s->subdivisions,
+                                      region_name, attachments_name);
+  if (!cut.ok()) return cut.status();
+  s->garment = cut->garment;
+  s->garment_from_body = cut->from_body;
+  s->initial = s->garment_from_body * m.deformed;
+  s->on_body = s->initial;
+  s->attachment_faces = cut->attachment_faces;
+  s->body = TriMesh{m.deformed, m.faces};
+  s->design.assign(s->garment.faces.rows(), kCloth);
+  if (Status st = ValidateMesh(s->garment.vertices, s->garment.faces, region_name + " (garment in the rest pose)"); !st.ok()) return st;
+  return ValidateMesh(s->initial, s->garment.faces, region_name + " (garment in the deformed pose)");
+}
+
+SceneSpec SceneAtFrame(const SceneSpec& spec, int frame, const Positions& start) {
+  SceneSpec s = spec;
+  const Positions& body = spec.motion->frames[frame];
+  s.name = spec.name + " frame " + std::to_string(frame + 1);
+  s.body = TriMesh{body, spec.motion->faces};
+  s.on_body = spec.garment_from_body * body;
+  s.initial = start;
+  return s;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -356,11 +457,36 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
   if (ec) return Status::Error(dir_path + ": cannot create directory: " + ec.message());
   nlohmann::ordered_json doc;
   doc["name"] = s.name;
-  KGD_RETURN_IF_ERROR(WriteObj((dir / "garment_rest.obj").string(), s.garment.vertices, s.garment.faces));
-  doc["garment"]["rest"] = "garment_rest.obj";
-  if (s.initial != s.garment.vertices) {
-    KGD_RETURN_IF_ERROR(WriteObj((dir / "garment_initial.obj").string(), s.initial, s.garment.faces));
-    doc["garment"]["initial"] = "garment_initial.obj";
+  if (!s.description.empty()) doc["description"] = s.description;
+  if (s.budget != 1.0) doc["budget"] = s.budget;
+  if (s.motion) {
+    KGD_RETURN_IF_ERROR(WriteObj((dir / "body_rest.obj").string(), s.motion->rest, s.motion->faces));
+    KGD_RETURN_IF_ERROR(WriteObj((dir / "body_deformed.obj").string(), s.motion->deformed, s.motion->faces));
+    doc["body"]["rest"] = "body_rest.obj";
+    doc["body"]["deformed"] = "body_deformed.obj";
+    if (!s.motion->frames.empty()) {
+      fs::create_directories(dir / "frames", ec);
+      if (ec) return Status::Error((dir / "frames").string() + ": cannot create directory: " + ec.message());
+      nlohmann::ordered_json frames = nlohmann::ordered_json::array();
+      for (size_t i = 0; i < s.motion->frames.size(); ++i) {
+        char file[64];
+        std::snprintf(file, sizeof file, "frames/frame_%02zu.obj", i + 1);
+        KGD_RETURN_IF_ERROR(WriteObj((dir / file).string(), s.motion->frames[i], s.motion->faces));
+        frames.push_back(file);
+      }
+      doc["body"]["frames"] = frames;
+    }
+    doc["body"]["support_scale"] = s.body_support_scale;
+    KGD_RETURN_IF_ERROR(WriteIndexList((dir / "garment_region.txt").string(), s.garment_region));
+    doc["garment"]["region"] = "garment_region.txt";
+    doc["garment"]["subdivisions"] = s.subdivisions;
+  } else {
+    KGD_RETURN_IF_ERROR(WriteObj((dir / "garment_rest.obj").string(), s.garment.vertices, s.garment.faces));
+    doc["garment"]["rest"] = "garment_rest.obj";
+    if (s.initial != s.garment.vertices) {
+      KGD_RETURN_IF_ERROR(WriteObj((dir / "garment_initial.obj").string(), s.initial, s.garment.faces));
+      doc["garment"]["initial"] = "garment_initial.obj";
+    }
   }
   std::vector<int> reinforced;
   for (size_t f = 0; f < s.design.size(); ++f)
@@ -375,14 +501,20 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
                       {"cloth", MaterialJson(s.cloth)},
                       {"reinforced", MaterialJson(s.reinforced)}};
   doc["effects"] = {{"membrane", s.effects.membrane}, {"relaxation", RelaxationName(s.effects.relaxation)},
+                    {"fold_barrier", s.effects.fold_barrier},
                     {"contact", ContactName(s.effects.contact)}, {"attachments", s.effects.attachments},
                     {"clamps", s.effects.clamps}};
-  if (s.body) {
+  if (s.body && !s.motion) {
     KGD_RETURN_IF_ERROR(WriteObj((dir / "body.obj").string(), s.body->vertices, s.body->faces));
     doc["body"] = {{"mesh", "body.obj"}, {"support_scale", s.body_support_scale}};
-    doc["contact"] = {{"stiffness_N_per_m", s.contact_stiffness_N_per_m}};
   }
-  if (!s.attachment_faces.empty()) {
+  if (s.body) doc["contact"] = {{"stiffness_N_per_m", s.contact_stiffness_N_per_m}};
+  if (s.motion) {
+    if (!s.attachment_body_faces.empty()) {
+      KGD_RETURN_IF_ERROR(WriteIndexList((dir / "attachment_body_faces.txt").string(), s.attachment_body_faces));
+      doc["attachments"] = {{"body_faces", "attachment_body_faces.txt"}, {"stiffness_N_per_m", s.attachment_stiffness_N_per_m}};
+    }
+  } else if (!s.attachment_faces.empty()) {
     KGD_RETURN_IF_ERROR(WriteIndexList((dir / "attachment_faces.txt").string(), s.attachment_faces));
     doc["attachments"] = {{"faces", "attachment_faces.txt"}, {"stiffness_N_per_m", s.attachment_stiffness_N_per_m}};
   }
@@ -526,10 +658,20 @@ SceneSpec SleeveOnLimbScene(const SleeveOptions& o) {
 }
 
 std::vector<std::string> BuiltinSceneNames() {
-  return {"sleeve_on_limb", "pull_test_all_cloth", "pull_test_all_reinforced", "pull_test_line", "pull_test_x"};
+  std::vector<std::string> names;
+  for (const PaperMotion& m : PaperMotions()) names.push_back(m.name);
+  for (const char* n : {"sleeve_on_limb", "pull_test_all_cloth", "pull_test_all_reinforced", "pull_test_line", "pull_test_x"})
+    names.push_back(n);
+  return names;
 }
 
 Result<SceneSpec> BuiltinScene(const std::string& name) {
+  for (const PaperMotion& m : PaperMotions())
+    if (m.name == name) {
+      Result<const ParametricBody*> body = DefaultParametricBody();
+      if (!body.ok()) return body.status();
+      return PaperScene(**body, m);
+    }
   if (name == "sleeve_on_limb") return SleeveOnLimbScene({});
   const std::string prefix = "pull_test_";
   if (name.rfind(prefix, 0) == 0) return PullTestScene(name.substr(prefix.size()));

@@ -4,26 +4,35 @@
 // Scene file (all keys optional unless marked; unknown keys are errors; units SI):
 // {
 //   "name": "pull_test_line",
+//   "description": "free text",
+//   "budget": 0.15,                      // fraction of the garment's area to reinforce (design jobs)
 //   "garment": {
-//     "rest": "sample.obj",              // required: OBJ or PLY, path relative to the scene file
+//     "rest": "sample.obj",              // a garment mesh of its own: OBJ or PLY, relative to this file
 //     "initial": "sample_deformed.obj",  // start positions (deformed pose); default: the rest mesh
+//     -- or, a garment cut from the body (then body.rest and body.deformed are required):
+//     "region": "garment.faces.txt" | [..],  // body faces, 0-based, one per line
+//     "subdivisions": 2,                  // midpoint subdivisions of the region (each 1 -> 4 faces)
 //     "design": "all_cloth" | "all_reinforced" | {"reinforced_faces": "line.txt" | [0, 1, ...]}
-//   },
+//   },                                   // (design indices are garment faces, after subdivision)
 //   "materials": {"lame": "solid3d" | "plane_stress",
 //                 "cloth": {"youngs_modulus_Pa": 5e5, "poisson_ratio": 0.33, "thickness_m": 2.7e-4},
 //                 "reinforced": {...}},
-//   "effects": {"membrane": true, "relaxation": "exact" | "authors" | "none",
+//   "effects": {"membrane": true, "relaxation": "exact" | "authors" | "none", "fold_barrier": true,
 //               "contact": "none" | "unilateral" | "bilateral", "attachments": false, "clamps": false},
 //   "body": {"mesh": "body_deformed.obj", "support_scale": 2.0},    // read only when contact is on
+//   -- or, with garment.region: the body's motion, every pose with the topology of "rest":
+//   "body": {"rest": "rest.obj", "deformed": "pose.obj", "frames": ["frames/frame_01.obj", ...]},
 //   "contact": {"stiffness_N_per_m": 5000},
-//   "attachments": {"faces": "attach.txt" | [..], "stiffness_N_per_m": 3000},
+//   "attachments": {"faces": "attach.txt" | [..],        // garment faces, or with garment.region:
+//                   "body_faces": "attach.txt" | [..],   // body faces inside the region
+//                   "stiffness_N_per_m": 3000},
 //   "clamps": [{"name": "moving", "vertices": "moving.txt" | [..] | {"box_min": [x,y,z], "box_max": [x,y,z]},
 //               "axes": "xyz", "displacement_m": [0, 0, 0.01]}],
 //   "solver": {"method": "newton" | "lbfgs", "grad_tol": 1e-7, "max_iterations": 200,
 //              "reuse_factorization": true, "lbfgs_history": 20}
 // }
-// Attachment anchors are the centroids of the attached faces in the initial positions (the body surface
-// in the current pose). Clamp boxes select vertices by rest position.
+// Attachment anchors are the centroids of the attached faces on the body in the simulated pose (for a
+// garment of its own: in the initial positions). Clamp boxes select vertices by rest position.
 #pragma once
 
 #include <optional>
@@ -31,6 +40,7 @@
 #include <vector>
 
 #include "core/mesh/trimesh.h"
+#include "core/scene/body_garment.h"
 #include "core/sim/garment_system.h"
 #include "core/sim/simulator.h"
 #include "core/util/status.h"
@@ -53,7 +63,27 @@ struct SceneSpec {
   double attachment_stiffness_N_per_m = kDefaultAttachmentStiffness;
   std::vector<Clamp> clamps;
   SolverSettings solver;
+  std::string description;
+  double budget = 1.0;             // reinforced fraction of the garment area a design job aims at
+
+  // Garments cut from the body (garment.region). Then garment = the cut in the motion's rest pose,
+  // initial = the cut in the deformed pose, body = the deformed body.
+  std::optional<BodyMotion> motion;
+  std::vector<int> garment_region;        // body faces
+  int subdivisions = 0;
+  std::vector<int> attachment_body_faces;
+  Eigen::SparseMatrix<double, Eigen::RowMajor> garment_from_body;  // garment vertices = this * body vertices
+  Positions on_body;                      // the cut in the simulated pose (attachment anchors); may be empty
 };
+
+// Cuts the garment from `spec->motion` (region, subdivisions, attachment body faces) and sets garment,
+// initial, body, attachment_faces, garment_from_body and on_body. Resets the design to all cloth.
+Status CutGarmentFromMotion(SceneSpec* spec, const std::string& region_name = "garment.region",
+                            const std::string& attachments_name = "attachments.body_faces");
+
+// The scene in one frame of its motion (0-based): body and anchors at that frame, start positions
+// `start` (e.g. the previous frame's equilibrium moved with the body). Precondition: motion has frames.
+SceneSpec SceneAtFrame(const SceneSpec& spec, int frame, const Positions& start);
 
 // Reads and validates a scene file; errors name the file, the key or the element.
 Result<SceneSpec> LoadScene(const std::string& path);

@@ -3,9 +3,11 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
+#include "core/sim/fold_barrier.h"
+
 namespace kgd {
 
-SimulationResult Summarize(GarmentSystem& sys, const Positions& x, const Positions& initial, const SolveReport& report) {
+SimulationResult Summarize(GarmentSystem& sys, const Positions& x, const Positions& reference, const SolveReport& report) {
   SimulationResult r;
   r.solve = report;
   r.positions = x;
@@ -21,13 +23,8 @@ SimulationResult Summarize(GarmentSystem& sys, const Positions& x, const Positio
       r.reinforced_energy_J += r.face_energy_J[f];
       r.reinforced_area_m2 += a;
     }
-    // Inversion: the deformed normal turned more than 90 degrees from the initial one.
-    const Eigen::Vector3d n0 = (initial.row(m.faces(f, 1)) - initial.row(m.faces(f, 0)))
-                                   .cross(initial.row(m.faces(f, 2)) - initial.row(m.faces(f, 0)));
-    const Eigen::Vector3d n1 =
-        (x.row(m.faces(f, 1)) - x.row(m.faces(f, 0))).cross(x.row(m.faces(f, 2)) - x.row(m.faces(f, 0)));
-    if (n0.dot(n1) <= 0) ++r.inverted_faces;
   }
+  r.inverted_faces = CountFoldedFaces(reference, x, m.faces);
   r.reinforced_density_J_per_m2 = r.reinforced_area_m2 > 0 ? r.reinforced_energy_J / r.reinforced_area_m2 : 0.0;
   if (m.effects.clamps) {
     Eigen::VectorXd g;
@@ -55,7 +52,31 @@ Result<SimulationResult> SimulateScene(const SceneSpec& scene) {
   Simulator sim(&sys);
   Positions x = scene.initial;
   const SolveReport report = sim.Solve(&x, scene.solver);
-  return Summarize(sys, x, scene.initial, report);
+  // Inversion is judged against the garment lying on the body where the scene has one.
+  return Summarize(sys, x, scene.on_body.rows() ? scene.on_body : scene.initial, report);
+}
+
+Result<std::vector<SimulationResult>> SimulateFrames(const SceneSpec& scene,
+                                                     const std::function<void(int, const SimulationResult&)>& on_frame) {
+  if (!scene.motion || scene.motion->frames.empty())
+    return Status::Error("scene '" + scene.name + "' has no motion frames (give body.frames with garment.region)");
+  const std::vector<Positions>& frames = scene.motion->frames;
+  std::vector<SimulationResult> out;
+  Positions start = scene.garment_from_body * frames[0];
+  for (size_t k = 0; k < frames.size(); ++k) {
+    const Positions on_body = scene.garment_from_body * frames[k];
+    if (k > 0) {
+      start = out.back().positions + scene.garment_from_body * (frames[k] - frames[k - 1]);
+      // Where the garment slid or lifted off, the body's displacement can fold a compressed triangle
+      // over; then this frame starts on the body instead.
+      if (scene.effects.fold_barrier && CountFoldedFaces(on_body, start, scene.garment.faces) > 0) start = on_body;
+    }
+    Result<SimulationResult> r = SimulateScene(SceneAtFrame(scene, static_cast<int>(k), start));
+    if (!r.ok()) return r.status().WithContext("frame " + std::to_string(k + 1) + ": ");
+    if (on_frame) on_frame(static_cast<int>(k), *r);
+    out.push_back(std::move(r).value());
+  }
+  return out;
 }
 
 }  // namespace kgd

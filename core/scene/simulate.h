@@ -1,6 +1,7 @@
 // One simulation of a scene in its given pose, and the figures a designer reads off it.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -26,14 +27,23 @@ struct SimulationResult {
   std::vector<ClampForce> clamp_forces;
   bool has_contact = false;
   double min_phi_m = 0, max_phi_m = 0;  // over vertices within the body field's support
-  int inverted_faces = 0;               // faces whose normal flipped against the initial state
+  int inverted_faces = 0;               // faces whose normal turned > 90 degrees from the reference
 };
 
 // Builds the model (and the body field only if contact is on), solves from the scene's initial
 // positions and summarizes.
 Result<SimulationResult> SimulateScene(const SceneSpec& scene);
 
+// Simulates a scene cut from a body through every frame of its motion, in order. Frame 1 starts on
+// the body; every later frame starts from the previous equilibrium moved with the body, so each solve
+// is warm. `on_frame` (optional) receives each frame's index (0-based) and result as soon as it is
+// solved. Errors if the scene has no frames.
+Result<std::vector<SimulationResult>> SimulateFrames(const SceneSpec& scene,
+                                                     const std::function<void(int, const SimulationResult&)>& on_frame = {});
+
 // Figures of a solved system at x (used by SimulateScene and by tests that drive GarmentSystem directly).
-SimulationResult Summarize(GarmentSystem& system, const Positions& x, const Positions& initial, const SolveReport& report);
+// `reference` orients the faces for the inversion count: the garment on the body in the simulated pose
+// when the scene has one, else the initial positions.
+SimulationResult Summarize(GarmentSystem& system, const Positions& x, const Positions& reference, const SolveReport& report);
 
 }  // namespace kgd

@@ -1,10 +1,15 @@
 #include "core/sim/garment_system.h"
 
+#include "core/mesh/topology.h"
+
+#include <Eigen/Geometry>
 #include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
+
+#include "core/mesh/topology.h"
 
 namespace kgd {
 namespace {
@@ -73,6 +78,15 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
   for (int f = 0; f < nf; ++f)
     elements_[f] = MakeMembraneElement(model_.rest.row(model_.faces(f, 0)), model_.rest.row(model_.faces(f, 1)),
                                        model_.rest.row(model_.faces(f, 2)));
+  // Folds are measured against the garment on the body, or the orientation it starts with.
+  if (model_.effects.fold_barrier) {
+    const Positions& ref = model_.fold_reference.rows() ? model_.fold_reference : initial;
+    fold_reference_.resize(nf);
+    for (int f = 0; f < nf; ++f) {
+      const Eigen::Vector3d a = ref.row(model_.faces(f, 0)), b = ref.row(model_.faces(f, 1)), c = ref.row(model_.faces(f, 2));
+      fold_reference_[f] = (b - a).cross(c - a).normalized();
+    }
+  }
   const Material mats[2] = {model_.cloth, model_.reinforced};
   for (int k = 0; k < 2; ++k) {
     lame_[k] = LameParameters(mats[k], model_.lame);
@@ -185,23 +199,15 @@ void GarmentSystem::ApplyClamps(Positions* x) const {
 
 void GarmentSystem::ApplyClampsSmoothly(Positions* x) const {
   const int nv = num_vertices();
-  // Unit-weight graph Laplacian over mesh edges (each interior edge seen twice; weights cancel in the
-  // ratio), built only when some clamp actually has to move: warm re-solves skip all of this.
+  // Unit-weight graph Laplacian over mesh edges, built only when some clamp actually has to move:
+  // warm re-solves skip all of this.
   std::vector<std::vector<int>> nbrs;
   for (int k = 0; k < 3; ++k) {
     bool moves = false;
     for (int v = 0; v < nv && !moves; ++v)
       if (free_index_[3 * v + k] < 0 && clamp_target_(v, k) != (*x)(v, k)) moves = true;
     if (!moves) continue;
-    if (nbrs.empty()) {
-      nbrs.resize(nv);
-      for (int f = 0; f < num_faces(); ++f)
-        for (int e = 0; e < 3; ++e) {
-          const int a = model_.faces(f, e), b = model_.faces(f, (e + 1) % 3);
-          nbrs[a].push_back(b);
-          nbrs[b].push_back(a);
-        }
-    }
+    if (nbrs.empty()) nbrs = VertexNeighbors(model_.faces, nv);
     std::vector<int> unknown(nv, -1);
     int n = 0;
     for (int v = 0; v < nv; ++v)
@@ -229,6 +235,37 @@ void GarmentSystem::ApplyClampsSmoothly(Positions* x) const {
   ApplyClamps(x);
 }
 
+double GarmentSystem::MaxFoldSafeStep(const Positions& x, const Positions& d) const {
+  if (!model_.effects.fold_barrier) return 1.0;
+  double step = 1.0;
+#pragma omp parallel for schedule(static) reduction(min : step)
+  for (int f = 0; f < num_faces(); ++f) {
+    const int a = model_.faces(f, 0), b = model_.faces(f, 1), c = model_.faces(f, 2);
+    const Eigen::Vector3d e1 = x.row(b) - x.row(a), e2 = x.row(c) - x.row(a);
+    const Eigen::Vector3d d1 = d.row(b) - d.row(a), d2 = d.row(c) - d.row(a);
+    const Eigen::Vector3d& n = fold_reference_[f];
+    // Projected area along the step: q(t) = q0 + q1 t + q2 t^2 (unnormalized); first root in (0, 1].
+    const double q0 = e1.cross(e2).dot(n), q1 = (d1.cross(e2) + e1.cross(d2)).dot(n), q2 = d1.cross(d2).dot(n);
+    if (q0 <= 0) continue;
+    double root = 2.0;
+    if (std::abs(q2) < 1e-300) {
+      if (q1 < 0) root = -q0 / q1;
+    } else {
+      const double disc = q1 * q1 - 4 * q2 * q0;
+      if (disc >= 0) {
+        const double sq = std::sqrt(disc);
+        // Numerically stable roots of q2 t^2 + q1 t + q0.
+        const double t1 = (-q1 - std::copysign(sq, q1)) / (2 * q2);
+        const double t2 = t1 != 0 ? q0 / (q2 * t1) : 2.0;
+        for (double t : {t1, t2})
+          if (t > 0 && t < root) root = t;
+      }
+    }
+    if (root <= 1.0) step = std::min(step, 0.8 * root);
+  }
+  return step;
+}
+
 double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Eigen::SparseMatrix<double>* hessian,
                                EnergyBreakdown* breakdown) {
   const int nv = num_vertices();
@@ -240,6 +277,7 @@ double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Ei
   const bool attach = fx.attachments && !model_.attachments.faces.empty();
   const double attach_kf = attach ? AttachmentFaceStiffness(model_.attachments) : 0.0;
   std::vector<double> attach_energy(attach ? num_faces() : 0, 0.0);
+  std::vector<double> fold_energy(fx.fold_barrier ? num_faces() : 0, 0.0);
 
   // Faces: membrane and attachments. One colour at a time; faces of a colour share no vertex.
   for (const std::vector<int>& color : colors_) {
@@ -261,6 +299,20 @@ double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Ei
         if (!std::isfinite(ev.energy_J)) continue;
         if (want_grad) g += ge;
         if (want_hess) H += He;
+      }
+      if (fx.fold_barrier) {
+        const int m = model_.design[f];
+        Vector9d gb;
+        Matrix9d Hb;
+        const double eb = EvaluateFoldBarrier(x0, x1, x2, fold_reference_[f], elements_[f].rest_area_m2,
+                                              lame_[m].mu_Pa * thickness_[m] * elements_[f].rest_area_m2,
+                                              want_grad ? &gb : nullptr, want_hess ? &Hb : nullptr, true);
+        fold_energy[f] = eb;
+        if (!std::isfinite(eb)) continue;
+        if (eb > 0) {
+          if (want_grad) g += gb;
+          if (want_hess) H += Hb;
+        }
       }
       if (attach && attach_index_[f] >= 0) {
         Vector9d ga;
@@ -307,6 +359,7 @@ double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Ei
   EnergyBreakdown e;
   for (double fe : face_energy_) e.membrane_J += fe;
   for (double ae : attach_energy) e.attachment_J += ae;
+  for (double be : fold_energy) e.fold_barrier_J += be;
   if (fx.contact != ContactModel::kNone)
     for (double ve : vertex_energy_) e.contact_J += ve;
   if (breakdown) *breakdown = e;

@@ -19,6 +19,7 @@
 #include "core/mesh/trimesh.h"
 #include "core/sim/attachment.h"
 #include "core/sim/contact.h"
+#include "core/sim/fold_barrier.h"
 #include "core/sim/membrane.h"
 #include "core/util/status.h"
 
@@ -36,6 +37,8 @@ struct Clamp {
 struct Effects {
   bool membrane = true;
   Relaxation relaxation = Relaxation::kExact;
+  // Refuse folds of the garment (see fold_barrier.h): an extension of the paper's model.
+  bool fold_barrier = true;
   ContactModel contact = ContactModel::kNone;
   bool attachments = false;
   bool clamps = false;
@@ -56,6 +59,9 @@ struct GarmentModel {
   double contact_stiffness_N_per_m = kDefaultContactStiffness;
   Attachments attachments;                // used when effects.attachments
   std::vector<Clamp> clamps;              // used when effects.clamps
+  // Orientation the fold barrier measures folds against (the garment on the body); empty: the
+  // positions the system is constructed with.
+  Positions fold_reference;
 };
 
 // Checks sizes, indices, materials and that the effects have what they need. Names the offending item.
@@ -65,7 +71,8 @@ struct EnergyBreakdown {
   double membrane_J = 0;
   double contact_J = 0;
   double attachment_J = 0;
-  double total_J() const { return membrane_J + contact_J + attachment_J; }
+  double fold_barrier_J = 0;
+  double total_J() const { return membrane_J + contact_J + attachment_J + fold_barrier_J; }
 };
 
 class GarmentSystem {
@@ -92,6 +99,11 @@ class GarmentSystem {
   // coordinates by harmonic extension over the mesh graph. Starting a pull from a state where only the
   // jaws moved would leave the interior slack, with no stiffness to guide Newton.
   void ApplyClampsSmoothly(Positions* x) const;
+
+  // With the fold barrier: the largest step length in [0, 1] along `direction` (all coordinates) that
+  // goes at most 80 % of the way to folding any triangle over (its projected area reaching zero), as
+  // interior-point methods step towards a barrier. 1 without the fold barrier.
+  double MaxFoldSafeStep(const Positions& x, const Positions& direction) const;
 
   // Total energy at x (+infinity where undefined) and, on request, the gradient over all 3n coordinates
   // and the projected Hessian over the free ones. `hessian` must be a copy of hessian_pattern().
@@ -120,6 +132,7 @@ class GarmentSystem {
  private:
   GarmentModel model_;
   std::vector<MembraneElement> elements_;
+  std::vector<Eigen::Vector3d> fold_reference_;  // per face: unit normal at construction (fold barrier)
   Lame lame_[2];
   double thickness_[2];
   std::vector<int> attach_index_;        // per face: index into attachments.faces, or -1

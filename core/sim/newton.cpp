@@ -211,7 +211,9 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       // Backtracking Armijo line search on the total energy.
       t = Clock::now();
       double E_new = 0;
-      alpha = 1.0;
+      AddFree(p, 1.0, free_index, *x, &trial);
+      trial -= *x;
+      alpha = sys.MaxFoldSafeStep(*x, trial);
       for (int ls = 0; ls < 40; ++ls, alpha *= 0.5) {
         AddFree(p, alpha, free_index, *x, &trial);
         E_new = sys.Evaluate(trial, nullptr, nullptr);

@@ -1,0 +1,108 @@
+// The parametric body (issue: bodies, garments and scenes, acceptance 3): a closed, consistently
+// oriented surface without self-intersection in the rest pose and in every built-in pose, made to
+// measure, with muscles that bulge when the joints flex.
+#include "core/body/parametric_body.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "core/mesh/self_intersection.h"
+#include "core/mesh/topology.h"
+
+namespace kgd {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+const ParametricBody& Body() {
+  static const Result<ParametricBody> body = BuildParametricBody();
+  EXPECT_TRUE(body.ok()) << body.message();
+  return *body;
+}
+
+double SignedVolume(const Positions& x, const Faces& f) {
+  double v = 0;
+  for (Eigen::Index i = 0; i < f.rows(); ++i)
+    v += Eigen::Vector3d(x.row(f(i, 0))).dot(Eigen::Vector3d(x.row(f(i, 1))).cross(Eigen::Vector3d(x.row(f(i, 2))))) / 6.0;
+  return v;
+}
+
+TEST(ParametricBody, RestSurfaceIsAClosedOutwardSphereOfTheRightSize) {
+  const ParametricBody& b = Body();
+  const TriMesh& m = b.rest;
+  EXPECT_GE(m.vertices.rows(), 10000);
+  EXPECT_LE(m.vertices.rows(), 30000);
+  const Status s = CheckClosedOrientedManifold(m.faces, "body");
+  EXPECT_TRUE(s.ok()) << s.message();
+  EXPECT_EQ(EulerCharacteristic(m.faces), 2);  // watertight, no handles: no openings to document
+  EXPECT_TRUE(ValidateMesh(m.vertices, m.faces, "body").ok());
+  const double volume = SignedVolume(m.vertices, m.faces);
+  EXPECT_GT(volume, 0.04);  // outward normals; a 1.70 m adult is about 0.06-0.07 m^3
+  EXPECT_LT(volume, 0.09);
+  const double height = m.vertices.col(1).maxCoeff() - m.vertices.col(1).minCoeff();
+  EXPECT_NEAR(height, b.measurements.height_m, 0.03 * b.measurements.height_m);
+  EXPECT_TRUE(SelfIntersections(m.vertices, m.faces, 1).empty());
+}
+
+TEST(ParametricBody, LimbGirthsMatchTheMeasurements) {
+  const ParametricBody& b = Body();
+  const BodyMeasurements& m = b.measurements;
+  EXPECT_NEAR(LimbGirth(b, {}, b.rest.vertices, kUpperArmR, 0.5), m.upper_arm_circumference_m, 0.05 * m.upper_arm_circumference_m);
+  EXPECT_NEAR(LimbGirth(b, {}, b.rest.vertices, kThighL, 0.4), m.thigh_circumference_m, 0.05 * m.thigh_circumference_m);
+}
+
+TEST(ParametricBody, MadeToMeasure) {
+  BodyMeasurements m;
+  m.upper_arm_circumference_m = 0.36;
+  m.resolution_m = 0.013;
+  const Result<ParametricBody> b = BuildParametricBody(m);
+  ASSERT_TRUE(b.ok()) << b.message();
+  EXPECT_NEAR(LimbGirth(*b, {}, b->rest.vertices, kUpperArmL, 0.5), 0.36, 0.05 * 0.36);
+  EXPECT_TRUE(CheckClosedOrientedManifold(b->rest.faces, "body").ok());
+}
+
+TEST(ParametricBody, BadMeasurementsAndAnglesAreNamed) {
+  BodyMeasurements m;
+  m.thigh_circumference_m = 2.0;
+  const Result<ParametricBody> b = BuildParametricBody(m);
+  ASSERT_FALSE(b.ok());
+  EXPECT_NE(b.message().find("thigh_circumference_m"), std::string::npos) << b.message();
+  const Result<Positions> p = PoseBody(Body(), {{"r_elbw_flex", 1.0}});
+  ASSERT_FALSE(p.ok());
+  EXPECT_NE(p.message().find("r_elbw_flex"), std::string::npos) << p.message();
+  EXPECT_FALSE(PoseBody(Body(), {{"r_elbow_flex", std::nan("")}}).ok());
+}
+
+TEST(ParametricBody, MusclesBulgeWithFlexion) {
+  const ParametricBody& b = Body();
+  const JointAngles flexed = {{"r_elbow_flex", 100 * kDeg}, {"r_knee_flex", 90 * kDeg}};
+  const Result<Positions> p = PoseBody(b, flexed);
+  ASSERT_TRUE(p.ok()) << p.message();
+  const double biceps_rest = LimbGirth(b, {}, b.rest.vertices, kUpperArmR, 0.5);
+  const double biceps_flexed = LimbGirth(b, flexed, *p, kUpperArmR, 0.5);
+  const double thigh_rest = LimbGirth(b, {}, b.rest.vertices, kThighR, 0.4);
+  const double thigh_flexed = LimbGirth(b, flexed, *p, kThighR, 0.4);
+  std::printf("biceps girth %.1f -> %.1f mm, thigh girth %.1f -> %.1f mm\n", 1e3 * biceps_rest, 1e3 * biceps_flexed,
+              1e3 * thigh_rest, 1e3 * thigh_flexed);
+  EXPECT_GT(biceps_flexed, 1.03 * biceps_rest);
+  EXPECT_GT(thigh_flexed, 1.03 * thigh_rest);
+  // The other arm did not move and does not bulge.
+  EXPECT_NEAR(LimbGirth(b, flexed, *p, kUpperArmL, 0.5), LimbGirth(b, {}, b.rest.vertices, kUpperArmL, 0.5), 1e-3);
+}
+
+TEST(ParametricBody, BentJointsKeepTheirGirth) {
+  // Dual-quaternion skinning and the bend-dependent fillet: no candy wrapper, no collapse at the elbow.
+  const ParametricBody& b = Body();
+  const JointAngles flexed = {{"r_elbow_flex", 100 * kDeg}};
+  const Result<Positions> p = PoseBody(b, flexed);
+  ASSERT_TRUE(p.ok());
+  for (double t : {0.1, 0.2}) {
+    const double rest = LimbGirth(b, {}, b.rest.vertices, kForearmR, t);
+    EXPECT_GT(LimbGirth(b, flexed, *p, kForearmR, t), 0.9 * rest) << "forearm at t = " << t;
+  }
+}
+
+}  // namespace
+}  // namespace kgd

@@ -1,0 +1,90 @@
+#include "core/mesh/topology.h"
+
+#include <gtest/gtest.h>
+
+namespace kgd {
+namespace {
+
+// A tetrahedron, counter-clockwise seen from outside.
+Faces Tetrahedron() {
+  Faces f(4, 3);
+  f << 0, 2, 1, 0, 1, 3, 1, 2, 3, 0, 3, 2;
+  return f;
+}
+
+// A 3 x 2 grid of quads (4 x 3 vertices), two triangles each.
+Faces Strip(int nx = 3, int ny = 2) {
+  Faces f(2 * nx * ny, 3);
+  int k = 0;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const int a = j * (nx + 1) + i, b = a + 1, c = a + nx + 1, d = c + 1;
+      f.row(k++) << a, b, d;
+      f.row(k++) << a, d, c;
+    }
+  return f;
+}
+
+TEST(Topology, ClosedManifoldAcceptsTetrahedronAndNamesDefects) {
+  EXPECT_TRUE(CheckClosedOrientedManifold(Tetrahedron(), "tet").ok());
+  EXPECT_EQ(EulerCharacteristic(Tetrahedron()), 2);
+  Faces open = Tetrahedron().topRows(3);
+  const Status s = CheckClosedOrientedManifold(open, "tet");
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("boundary"), std::string::npos) << s.message();
+  Faces flipped = Tetrahedron();
+  std::swap(flipped(3, 1), flipped(3, 2));
+  const Status t = CheckClosedOrientedManifold(flipped, "tet");
+  ASSERT_FALSE(t.ok());
+  EXPECT_NE(t.message().find("orientation"), std::string::npos) << t.message();
+}
+
+TEST(Topology, BoundaryLoopOfAStripFollowsTheFaces) {
+  const Faces f = Strip();
+  const auto loops = BoundaryLoops(f);
+  ASSERT_EQ(loops.size(), 1u);
+  EXPECT_EQ(loops[0].size(), 10u);  // 2 * (3 + 2) boundary edges of a 3 x 2 grid
+  EXPECT_TRUE(BoundaryLoops(Tetrahedron()).empty());
+}
+
+TEST(Topology, PiecesAreEdgeConnected) {
+  Faces two(4, 3);
+  two << 0, 1, 2, 2, 1, 3,   // piece 0: two triangles sharing edge 1-2
+      3, 4, 5, 6, 7, 8;      // faces touching piece 0 only at vertex 3, and a separate triangle
+  const FacePieces p = EdgeConnectedPieces(two);
+  EXPECT_EQ(p.count, 3);
+  EXPECT_EQ(p.piece[0], p.piece[1]);
+  EXPECT_NE(p.piece[1], p.piece[2]);
+}
+
+TEST(Topology, MidpointSubdivisionQuadruplesAndInterpolates) {
+  const Faces f = Strip();
+  Positions x(12, 3);
+  for (int v = 0; v < 12; ++v) x.row(v) << v % 4, v / 4, 0.1 * v;
+  const Subdivision s = SubdivideMidpoint(f, 12);
+  EXPECT_EQ(s.faces.rows(), 4 * f.rows());
+  // New vertices: one per edge; a 3 x 2 grid of split quads has 17 + 6 = 23 edges.
+  EXPECT_EQ(s.prolongation.rows(), 12 + 23);
+  const Positions y = s.prolongation * x;
+  for (int r = 0; r < y.rows(); ++r) EXPECT_NEAR(Eigen::VectorXd(s.prolongation.row(r).transpose()).sum(), 1.0, 1e-15);
+  // Child 3 of face 0 is the middle triangle: its corners are the parent's edge midpoints.
+  const Eigen::Vector3d mid01 = 0.5 * (x.row(f(0, 0)) + x.row(f(0, 1))).transpose();
+  EXPECT_LT((y.row(s.faces(3, 0)).transpose() - mid01).norm(), 1e-15);
+  EXPECT_TRUE(BoundaryLoops(s.faces).size() == 1);
+  EXPECT_EQ(EulerCharacteristic(s.faces), EulerCharacteristic(f));
+}
+
+TEST(Topology, ExtractFacesReindexes) {
+  const Faces f = Strip();
+  const SubMesh sub = ExtractFaces(f, {4, 5});
+  EXPECT_EQ(sub.vertex_ids, (std::vector<int>{2, 3, 6, 7}));
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(sub.vertex_ids[sub.faces(0, k)], f(4, k));
+}
+
+TEST(Topology, VertexNeighborsAreUnique) {
+  const auto n = VertexNeighbors(Tetrahedron(), 4);
+  for (const auto& list : n) EXPECT_EQ(list.size(), 3u);
+}
+
+}  // namespace
+}  // namespace kgd

@@ -1,0 +1,226 @@
+#include "core/scene/paper_scenes.h"
+
+#include <algorithm>
+#include <array>
+#include <map>
+#include <cmath>
+#include <numbers>
+#include <set>
+
+#include "core/mesh/topology.h"
+
+namespace kgd {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+JointAngles Degrees(std::initializer_list<std::pair<const std::string, double>> list) {
+  JointAngles out;
+  for (const auto& [name, deg] : list) out[name] = deg * kDeg;
+  return out;
+}
+
+// Grows and trims a face set into a clean garment: pockets filled, ears and pinched boundary
+// vertices removed, the largest piece kept.
+std::vector<int> CleanRegion(const Faces& faces, int num_vertices, std::vector<char> in) {
+  const int nf = static_cast<int>(faces.rows());
+  // Face neighbours across edges.
+  std::vector<std::array<int, 3>> across(nf, {-1, -1, -1});
+  {
+    std::map<std::pair<int, int>, std::pair<int, int>> edge;  // (a, b) -> (face, slot)
+    for (int f = 0; f < nf; ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int a = faces(f, k), b = faces(f, (k + 1) % 3);
+        auto it = edge.find({b, a});
+        if (it != edge.end()) {
+          across[f][k] = it->second.first;
+          across[it->second.first][it->second.second] = f;
+        } else {
+          edge[{a, b}] = {f, k};
+        }
+      }
+  }
+  auto count_in = [&](int f) {
+    int c = 0;
+    for (int g : across[f]) c += g >= 0 && in[g];
+    return c;
+  };
+  for (int round = 0; round < 20; ++round) {
+    bool changed = false;
+    for (int f = 0; f < nf; ++f)
+      if (!in[f] && count_in(f) >= 2) in[f] = 1, changed = true;
+    for (int f = 0; f < nf; ++f)
+      if (in[f] && count_in(f) <= 1) in[f] = 0, changed = true;
+    // Pinches: a vertex with more than two boundary edges.
+    std::vector<int> boundary_edges(num_vertices, 0);
+    for (int f = 0; f < nf; ++f)
+      if (in[f])
+        for (int k = 0; k < 3; ++k)
+          if (across[f][k] < 0 || !in[across[f][k]]) {
+            ++boundary_edges[faces(f, k)];
+            ++boundary_edges[faces(f, (k + 1) % 3)];
+          }
+    for (int f = 0; f < nf; ++f)
+      if (in[f])
+        for (int k = 0; k < 3; ++k)
+          if (boundary_edges[faces(f, k)] > 2) in[f] = 0, changed = true;
+    if (!changed) break;
+  }
+  std::vector<int> ids;
+  for (int f = 0; f < nf; ++f)
+    if (in[f]) ids.push_back(f);
+  if (ids.empty()) return ids;
+  const SubMesh sub = ExtractFaces(faces, ids);
+  const FacePieces pieces = EdgeConnectedPieces(sub.faces);
+  std::vector<int> size(pieces.count, 0);
+  for (int p : pieces.piece) ++size[p];
+  const int largest = static_cast<int>(std::max_element(size.begin(), size.end()) - size.begin());
+  std::vector<int> out;
+  for (size_t i = 0; i < ids.size(); ++i)
+    if (pieces.piece[i] == largest) out.push_back(ids[i]);
+  return out;
+}
+
+}  // namespace
+
+std::vector<PaperMotion> PaperMotions() {
+  std::vector<PaperMotion> m;
+  m.push_back({"arm_flexion", "sleeve_arm", "Right elbow flexes from 15 to 100 degrees; arm sleeve from ~10 cm above to ~10 cm below the elbow.",
+               {}, Degrees({{"r_elbow_flex", 100}}), 8, 0.15, 2});
+  m.push_back({"arm_extension", "sleeve_arm", "Right elbow extends from 60 to 0 degrees; arm sleeve.",
+               Degrees({{"r_elbow_flex", 60}}), Degrees({{"r_elbow_flex", 0}}), 4, 0.15, 2});
+  m.push_back({"knee_flexion", "sleeve_knee", "Right hip flexes 45 and knee 90 degrees (ankle -25); knee sleeve from ~12 cm above to ~12 cm below the knee.",
+               {}, Degrees({{"r_hip_flex", 45}, {"r_knee_flex", 90}, {"r_ankle_flex", -25}}), 8, 0.10, 1});
+  m.push_back({"knee_extension", "sleeve_knee", "Right knee extends from 40 to -5 degrees with the hip flexed 25; knee sleeve.",
+               Degrees({{"r_hip_flex", 25}, {"r_knee_flex", 40}}), Degrees({{"r_hip_flex", 25}, {"r_knee_flex", -5}}), 4, 0.15, 1});
+  m.push_back({"slouch", "shirt", "Spine flexes 28, neck 15, head -12 degrees, shoulders protract 15; shirt with short sleeves.",
+               {},
+               Degrees({{"spine01_flex", 10}, {"spine02_flex", 10}, {"spine03_flex", 5}, {"spine04_flex", 3}, {"neck01_flex", 10},
+                        {"neck02_flex", 5}, {"head_flex", -12}, {"l_clav_protr", 15}, {"r_clav_protr", 15}, {"l_clav_elev", -4},
+                        {"r_clav_elev", -4}, {"l_shoulder_flex", -20}, {"r_shoulder_flex", -20}}),
+               8, 0.10, 1});
+  // Arms reach forward (the MakeHuman crouch's 45 degrees would put this body's hands into its thighs).
+  m.push_back({"crouch", "shorts", "Both hips flex 85 and knees 90 degrees with the trunk pitched 20 forward; shorts.",
+               {},
+               Degrees({{"l_hip_flex", 85}, {"r_hip_flex", 85}, {"l_knee_flex", 90}, {"r_knee_flex", 90}, {"l_shoulder_flex", 90},
+                        {"r_shoulder_flex", 90}, {"trunk_pitch", 20}}),
+               4, 0.15, 1});
+  m.push_back({"lunge", "shorts", "Right hip flexes 80 and knee 90 degrees forward, left hip extends 25 with the knee at 69; shorts.",
+               {}, Degrees({{"r_hip_flex", 80}, {"r_knee_flex", 90}, {"l_hip_flex", -25}, {"l_knee_flex", 69}, {"l_ankle_flex", -29}}),
+               4, 0.15, 1});
+  return m;
+}
+
+Result<BodyRegion> ParametricGarmentRegion(const ParametricBody& body, const std::string& garment, double band_width_m) {
+  const Positions& x = body.rest.vertices;
+  const Faces& faces = body.rest.faces;
+  const int nv = static_cast<int>(x.rows());
+  auto axial = [&](int v, int bone) {
+    const Eigen::Vector3d dir = (BoneEnd(body, bone) - body.joint[bone]).normalized();
+    return (x.row(v).transpose() - body.joint[bone]).dot(dir);
+  };
+  auto length = [&](int bone) { return (BoneEnd(body, bone) - body.joint[bone]).norm(); };
+  const double hip_y = body.joint[kPelvis].y();
+  std::vector<char> vin(nv, 0);
+  for (int v = 0; v < nv; ++v) {
+    const int b = body.dominant_bone[v];
+    const double y = x(v, 1);
+    bool in = false;
+    if (garment == "sleeve_arm") {
+      in = (b == kUpperArmR && axial(v, b) >= length(b) - 0.10) || (b == kForearmR && axial(v, b) <= 0.10);
+    } else if (garment == "sleeve_knee") {
+      in = (b == kThighR && axial(v, b) >= length(b) - 0.12) || (b == kShankR && axial(v, b) <= 0.12);
+    } else if (garment == "shirt") {
+      in = (b == kPelvis || b == kLumbar || b == kThorax || b == kChest ||
+            ((b == kUpperArmL || b == kUpperArmR) && axial(v, b) <= 0.5 * length(b))) &&
+           y >= hip_y + 0.06;
+    } else if (garment == "shorts") {
+      in = (b == kPelvis || b == kLumbar || b == kThorax || ((b == kThighL || b == kThighR) && axial(v, b) <= 0.5 * length(b))) &&
+           y <= hip_y + 0.10;
+    } else {
+      return Status::Error("unknown garment '" + garment + "' (sleeve_arm, sleeve_knee, shirt, shorts)");
+    }
+    vin[v] = in;
+  }
+  std::vector<char> fin(faces.rows(), 0);
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) fin[f] = vin[faces(f, 0)] && vin[faces(f, 1)] && vin[faces(f, 2)];
+  BodyRegion region;
+  region.faces = CleanRegion(faces, nv, fin);
+  if (region.faces.empty()) return Status::Error("garment '" + garment + "' selects no face of the parametric body");
+
+  // Attachment bands along the open ends; the shirt's neckline (the highest end) stays free.
+  const SubMesh sub = ExtractFaces(faces, region.faces);
+  std::vector<std::vector<int>> loops = BoundaryLoops(sub.faces);
+  int neckline = -1;
+  if (garment == "shirt") {
+    double best = -1e300;
+    for (size_t l = 0; l < loops.size(); ++l) {
+      double y = 0;
+      for (int v : loops[l]) y += x(sub.vertex_ids[v], 1) / loops[l].size();
+      if (y > best) best = y, neckline = static_cast<int>(l);
+    }
+  }
+  std::vector<Eigen::Vector3d> held;
+  for (size_t l = 0; l < loops.size(); ++l)
+    if (static_cast<int>(l) != neckline)
+      for (int v : loops[l]) held.push_back(x.row(sub.vertex_ids[v]));
+  for (int f : region.faces) {
+    const Eigen::Vector3d c = (x.row(faces(f, 0)) + x.row(faces(f, 1)) + x.row(faces(f, 2))).transpose() / 3.0;
+    double d = 1e300;
+    for (const auto& p : held) d = std::min(d, (p - c).norm());
+    if (d < band_width_m) region.attachment_faces.push_back(f);
+  }
+  return region;
+}
+
+Result<const ParametricBody*> DefaultParametricBody() {
+  static const Result<ParametricBody> body = BuildParametricBody();
+  if (!body.ok()) return body.status();
+  return &body.value();
+}
+
+Result<SceneSpec> PaperScene(const ParametricBody& body, const PaperMotion& motion) {
+  Result<BodyRegion> region = ParametricGarmentRegion(body, motion.garment);
+  if (!region.ok()) return region.status();
+  // Keyframes: the motion's rest, then its frames (angles interpolated linearly).
+  std::set<std::string> names;
+  for (const auto& [n, v] : motion.rest) names.insert(n);
+  for (const auto& [n, v] : motion.pose) names.insert(n);
+  const JointAngles body_rest = RestAngles();
+  auto at = [&](const JointAngles& a, const std::string& n) {
+    if (a.count(n)) return a.at(n);
+    if (motion.rest.count(n)) return motion.rest.at(n);
+    return body_rest.count(n) ? body_rest.at(n) : 0.0;
+  };
+  std::vector<JointAngles> keys;
+  JointAngles rest;
+  for (const auto& n : names) rest[n] = at(motion.rest, n);
+  keys.push_back(rest);
+  for (int k = 1; k <= motion.frames; ++k) {
+    JointAngles f;
+    for (const auto& n : names) f[n] = at(motion.rest, n) + (at(motion.pose, n) - at(motion.rest, n)) * k / motion.frames;
+    keys.push_back(f);
+  }
+  Result<std::vector<Positions>> poses = PoseSequence(body, keys);
+  if (!poses.ok()) return poses.status().WithContext(motion.name + ": ");
+  SceneSpec s;
+  s.name = motion.name;
+  s.description = motion.description;
+  s.budget = motion.budget;
+  BodyMotion m;
+  m.faces = body.rest.faces;
+  m.rest = (*poses)[0];
+  m.deformed = poses->back();
+  m.frames.assign(poses->begin() + 1, poses->end());
+  s.motion = std::move(m);
+  s.garment_region = region->faces;
+  s.attachment_body_faces = region->attachment_faces;
+  s.subdivisions = motion.subdivisions;
+  s.effects.contact = ContactModel::kUnilateral;
+  s.effects.attachments = true;
+  if (Status st = CutGarmentFromMotion(&s, motion.name + ": garment " + motion.garment, motion.name + ": attachment bands"); !st.ok())
+    return st;
+  return s;
+}
+
+}  // namespace kgd

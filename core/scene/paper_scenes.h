@@ -1,0 +1,43 @@
+// The paper's scenes, built into the program on the parametric body: arm flexion and extension (arm
+// sleeve), knee flexion and extension (knee sleeve), slouch (shirt), crouch and lunge (shorts). Each
+// has its motion (rest pose, deformed pose, frames), garment region, attachment bands at the garment's
+// open ends and the paper's material budget.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/body/parametric_body.h"
+#include "core/scene/scene.h"
+
+namespace kgd {
+
+struct PaperMotion {
+  std::string name;
+  std::string garment;      // sleeve_arm, sleeve_knee, shirt or shorts
+  std::string description;
+  JointAngles rest;         // angles differing from the body's rest pose (rad)
+  JointAngles pose;         // the deformed pose (rad); angles not listed keep their rest value
+  int frames = 4;           // frame k at t = k / frames from rest to pose; the last is the deformed pose
+  double budget = 0.15;
+  int subdivisions = 1;
+};
+
+std::vector<PaperMotion> PaperMotions();
+
+// A garment region on a parametric body: body faces, and the attachment bands among them (one band
+// of `band_width_m` along each open end that is held to the body; the shirt's neckline is not).
+struct BodyRegion {
+  std::vector<int> faces;
+  std::vector<int> attachment_faces;
+};
+Result<BodyRegion> ParametricGarmentRegion(const ParametricBody& body, const std::string& garment, double band_width_m = 0.025);
+
+// The parametric body for the default measurements, built once per process.
+Result<const ParametricBody*> DefaultParametricBody();
+
+// The scene of one paper motion on `body`: the body posed through the motion's frames, the garment cut
+// from it (all cloth), unilateral contact and attachments.
+Result<SceneSpec> PaperScene(const ParametricBody& body, const PaperMotion& motion);
+
+}  // namespace kgd

@@ -1,0 +1,149 @@
+// The built-in scenes on the parametric body (issue: bodies, garments and scenes, acceptance 1 and 3):
+// clean body poses, garments of the paper's sizes with attachment bands at their open ends, and a fully
+// reinforced garment that simulates to convergence through every frame, ending outside the body.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "core/mesh/self_intersection.h"
+#include "core/mesh/topology.h"
+#include "core/scene/paper_scenes.h"
+#include "core/scene/scene.h"
+#include "core/scene/simulate.h"
+
+namespace kgd {
+namespace {
+
+// Penalty contact leaves the cloth slightly inside where it presses hard: depth = pressure x vertex
+// area / stiffness. docs/VALIDATION.md states this tolerance for the body scenes.
+constexpr double kPenetrationTolerance_m = 0.5e-3;
+
+struct Expected {
+  int min_vertices, max_vertices, open_ends;
+  double budget;
+};
+
+Expected ExpectedFor(const std::string& name) {
+  if (name == "arm_flexion" || name == "arm_extension") return {5000, 9000, 2, 0.15};
+  if (name == "knee_flexion") return {2000, 4500, 2, 0.10};
+  if (name == "knee_extension") return {2000, 4500, 2, 0.15};
+  if (name == "slouch") return {12000, 30000, 4, 0.10};
+  return {7000, 13000, 3, 0.15};  // shorts: crouch, lunge
+}
+
+class BuiltinScene : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(BuiltinScene, PosesGarmentAndFullyReinforcedFrames) {
+  const std::string name = GetParam();
+  Result<SceneSpec> scene = kgd::BuiltinScene(name);
+  ASSERT_TRUE(scene.ok()) << scene.message();
+  ASSERT_TRUE(scene->motion.has_value());
+  const BodyMotion& motion = *scene->motion;
+
+  // Every pose of the body is free of self-intersection (acceptance 3).
+  std::vector<const Positions*> poses = {&motion.rest, &motion.deformed};
+  for (const Positions& f : motion.frames) poses.push_back(&f);
+  for (size_t k = 0; k < poses.size(); ++k) {
+    const auto pairs = SelfIntersections(*poses[k], motion.faces, 3);
+    EXPECT_TRUE(pairs.empty()) << name << " pose " << k << ": faces " << pairs[0].first << " and " << pairs[0].second << " cross";
+  }
+  EXPECT_EQ(motion.frames.back(), motion.deformed);
+
+  // The garment: the paper's size, one piece, attachment bands along its open ends, the paper's budget.
+  const Expected e = ExpectedFor(name);
+  const int nv = static_cast<int>(scene->garment.vertices.rows());
+  std::printf("%s: %d garment vertices, %ld faces, %zu attached, %zu frames\n", name.c_str(), nv, (long)scene->garment.faces.rows(),
+              scene->attachment_faces.size(), motion.frames.size());
+  EXPECT_GE(nv, e.min_vertices);
+  EXPECT_LE(nv, e.max_vertices);
+  EXPECT_EQ(EdgeConnectedPieces(scene->garment.faces).count, 1);
+  EXPECT_EQ(static_cast<int>(BoundaryLoops(scene->garment.faces).size()), e.open_ends);
+  EXPECT_DOUBLE_EQ(scene->budget, e.budget);
+  ASSERT_FALSE(scene->attachment_faces.empty());
+  EXPECT_LT(scene->attachment_faces.size(), scene->garment.faces.rows() / 3);
+  EXPECT_TRUE(scene->effects.attachments);
+  EXPECT_EQ(scene->effects.contact, ContactModel::kUnilateral);
+
+  // Fully reinforced through every frame (acceptance 1): the last frame is the deformed pose.
+  scene->design.assign(scene->design.size(), kReinforced);
+  const Result<std::vector<SimulationResult>> frames = SimulateFrames(*scene, [&](int k, const SimulationResult& r) {
+    std::printf("  frame %d: %s, %d iterations, %.2f s, E %.6g J, min phi %.3f mm, inverted %d\n", k + 1,
+                ToString(r.solve.status), r.solve.iterations, r.solve.seconds, r.solve.energy_J, 1e3 * r.min_phi_m, r.inverted_faces);
+    std::fflush(stdout);
+  });
+  ASSERT_TRUE(frames.ok()) << frames.message();
+  ASSERT_EQ(frames->size(), motion.frames.size());
+  double previous = 0;
+  for (size_t k = 0; k < frames->size(); ++k) {
+    const SimulationResult& r = (*frames)[k];
+    EXPECT_TRUE(r.solve.converged()) << name << " frame " << k + 1 << ": " << ToString(r.solve.status) << " " << r.solve.message;
+    EXPECT_GE(r.min_phi_m, -kPenetrationTolerance_m) << name << " frame " << k + 1;
+    // No triangle folds over (the fold barrier; docs/VALIDATION.md, "Folds").
+    EXPECT_EQ(r.inverted_faces, 0) << name << " frame " << k + 1;
+    // The motion strains the garment more and more.
+    EXPECT_GT(r.reinforced_energy_J, previous) << name << " frame " << k + 1;
+    previous = r.reinforced_energy_J;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Paper, BuiltinScene,
+                         ::testing::Values("arm_flexion", "arm_extension", "knee_flexion", "knee_extension", "slouch", "crouch", "lunge"),
+                         [](const auto& info) { return info.param; });
+
+TEST(BuiltinScenes, ListedWithTheirBudgets) {
+  const std::vector<std::string> names = BuiltinSceneNames();
+  for (const PaperMotion& m : PaperMotions()) {
+    EXPECT_NE(std::find(names.begin(), names.end(), m.name), names.end()) << m.name;
+    EXPECT_DOUBLE_EQ(m.budget, (m.name == "knee_flexion" || m.name == "slouch") ? 0.10 : 0.15) << m.name;
+  }
+  EXPECT_EQ(PaperMotions().size(), 7u);
+}
+
+std::string RunKgd(const std::string& args, int* exit_code) {
+  FILE* p = popen((std::string(KGD_BINARY) + " " + args + " 2>&1").c_str(), "r");
+  std::string out;
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) out.append(buf.data(), n);
+  const int status = pclose(p);
+  *exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+  return out;
+}
+
+// Acceptance 5: `kgd scene export` then `kgd simulate` on the files reproduces the built-in result.
+TEST(BuiltinScenes, ExportThenSimulateReproducesTheBuiltIn) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "kgd_export_knee_extension";
+  std::filesystem::remove_all(dir);
+  int code = -1;
+  const std::string exported = RunKgd("scene export knee_extension " + dir.string(), &code);
+  ASSERT_EQ(code, 0) << exported;
+  for (const char* f : {"scene.json", "body_rest.obj", "body_deformed.obj", "frames/frame_04.obj", "garment_region.txt",
+                        "attachment_body_faces.txt"})
+    EXPECT_TRUE(std::filesystem::exists(dir / f)) << f;
+  const std::string a = RunKgd("simulate knee_extension --design all_reinforced --json", &code);
+  ASSERT_EQ(code, 0) << a;
+  const std::string b = RunKgd("simulate " + (dir / "scene.json").string() + " --design all_reinforced --json", &code);
+  ASSERT_EQ(code, 0) << b;
+  const nlohmann::json ja = nlohmann::json::parse(a.substr(a.find('{'))), jb = nlohmann::json::parse(b.substr(b.find('{')));
+  for (const char* k : {"vertices", "faces", "iterations"}) EXPECT_EQ(ja[k], jb[k]) << k;
+  for (const char* k : {"energy_J", "reinforced_energy_J", "min_phi_m", "garment_area_m2"})
+    EXPECT_NEAR(ja[k].get<double>(), jb[k].get<double>(), 1e-12 * std::abs(ja[k].get<double>())) << k;
+  // Frames too.
+  const std::string fa = RunKgd("simulate knee_extension --frames --json", &code);
+  ASSERT_EQ(code, 0) << fa;
+  const std::string fb = RunKgd("simulate " + (dir / "scene.json").string() + " --frames --json", &code);
+  ASSERT_EQ(code, 0) << fb;
+  const nlohmann::json jfa = nlohmann::json::parse(fa.substr(fa.find('{'))), jfb = nlohmann::json::parse(fb.substr(fb.find('{')));
+  ASSERT_EQ(jfa["frames"].size(), 4u);
+  for (size_t k = 0; k < 4; ++k)
+    EXPECT_NEAR(jfa["frames"][k]["energy_J"].get<double>(), jfb["frames"][k]["energy_J"].get<double>(),
+                1e-12 * jfa["frames"][k]["energy_J"].get<double>());
+}
+
+}  // namespace
+}  // namespace kgd
