@@ -4,9 +4,12 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
+#include <stdexcept>
 #include <nlohmann/json.hpp>
 
 #include "core/mesh/mesh_io.h"
+#include "core/body/parametric_body.h"
 #include "core/scene/paper_scenes.h"
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
@@ -24,14 +27,41 @@ struct SimulateOptions {
   bool verbose = false;
   bool frames = false;
   std::string design;
+  std::vector<std::string> body;
 };
 
-// A scene argument is a scene file if it exists, else the name of a built-in scene.
-Result<SceneSpec> ResolveScene(const std::string& arg) {
-  if (std::filesystem::exists(arg)) return LoadScene(arg);
+// `--body name=value` options: measurements of the parametric body (SI).
+Result<std::optional<BodyMeasurements>> ParseBody(const std::vector<std::string>& items) {
+  if (items.empty()) return std::optional<BodyMeasurements>();
+  BodyMeasurements m;
+  for (const std::string& item : items) {
+    const size_t eq = item.find('=');
+    if (eq == std::string::npos) return Status::Error("--body " + item + ": expected name=value, e.g. upper_arm_circumference_m=0.32");
+    double value = 0;
+    try {
+      size_t used = 0;
+      value = std::stod(item.substr(eq + 1), &used);
+      if (used != item.size() - eq - 1) throw std::invalid_argument("trailing");
+    } catch (const std::exception&) {
+      return Status::Error("--body " + item + ": '" + item.substr(eq + 1) + "' is not a number");
+    }
+    if (Status st = SetMeasurement(&m, item.substr(0, eq), value); !st.ok()) return st;
+  }
+  return std::optional<BodyMeasurements>(m);
+}
+
+// A scene argument is a scene file if it exists, else the name of a built-in scene (on a parametric
+// body made to `body`, when given).
+Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items = {}) {
+  Result<std::optional<BodyMeasurements>> body = ParseBody(body_items);
+  if (!body.ok()) return body.status();
+  if (std::filesystem::exists(arg)) {
+    if (*body) return Status::Error(arg + ": --body applies to built-in scenes, not to scene files");
+    return LoadScene(arg);
+  }
   if (arg.find('/') != std::string::npos || (arg.size() > 5 && arg.substr(arg.size() - 5) == ".json"))
     return Status::Error(arg + ": no such scene file");
-  return BuiltinScene(arg);
+  return *body ? BuiltinScene(arg, **body) : BuiltinScene(arg);
 }
 
 nlohmann::json ResultJson(const SceneSpec& scene, const SimulationResult& r) {
@@ -141,7 +171,7 @@ int RunFrames(const SimulateOptions& o, const SceneSpec& scene) {
 }
 
 int RunSimulate(const SimulateOptions& o) {
-  Result<SceneSpec> scene = ResolveScene(o.scene);
+  Result<SceneSpec> scene = ResolveScene(o.scene, o.body);
   if (!scene.ok()) {
     std::cerr << "kgd simulate: " << scene.message() << "\n";
     return 2;
@@ -186,6 +216,9 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
   sim->add_flag("--frames", opts->frames,
                 "Simulate every frame of the scene's motion in order (each warm-started from the previous); "
                 "with --out, one PLY per frame (NAME_frame_01.ply, ...)");
+  sim->add_option("--body", opts->body,
+                  "A measurement of the parametric body for the paper's scenes, name=value in SI (repeatable), e.g. "
+                  "--body upper_arm_circumference_m=0.32 --body height_m=1.80");
   sim->add_option("--design", opts->design, "Override the design: all_cloth or all_reinforced")
       ->check(CLI::IsMember({"all_cloth", "all_reinforced"}));
   sim->add_option("--out", opts->out, "Write the equilibrium as PLY with per-face design and energy density");
@@ -210,13 +243,16 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
 
   auto name = std::make_shared<std::string>();
   auto dir = std::make_shared<std::string>();
+  auto body = std::make_shared<std::vector<std::string>>();
   CLI::App* scene = app.add_subcommand("scene", "Work with scenes");
   scene->require_subcommand(1);
   CLI::App* exp = scene->add_subcommand("export", "Write a built-in scene as plain files (scene.json, meshes, index lists)");
   exp->add_option("name", *name, "Built-in scene name")->required();
   exp->add_option("dir", *dir, "Output directory")->required();
-  exp->callback([name, dir, exit_code] {
-    Result<SceneSpec> s = BuiltinScene(*name);
+  exp->add_option("--body", *body, "A measurement of the parametric body, name=value in SI (repeatable)");
+  exp->callback([name, dir, body, exit_code] {
+    Result<SceneSpec> s = ResolveScene(*name, *body);
+    if (s.ok() && std::filesystem::exists(*name)) s = Status::Error(*name + ": not a built-in scene name");
     Status st = s.ok() ? ExportScene(*s, *dir) : s.status();
     if (!st.ok()) {
       std::cerr << "kgd scene export: " << st.message() << "\n";

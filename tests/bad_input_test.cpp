@@ -186,4 +186,23 @@ TEST_F(ImportInput, MixedGarmentKindsAreRefused) {
               "body.rest: only allowed with garment.region");
 }
 
+TEST(BodyOption, MeasurementsAreNamedAndChecked) {
+  CommandRun r = Kgd("simulate knee_extension --body thigh=0.6");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("body measurement 'thigh' is not known"), std::string::npos) << r.output;
+  r = Kgd("simulate knee_extension --body thigh_circumference_m=2.5");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("thigh_circumference_m = 2.5"), std::string::npos) << r.output;
+  r = Kgd("simulate knee_extension --body thigh_circumference_m=x");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("'x' is not a number"), std::string::npos) << r.output;
+  // A made-to-measure knee sleeve: a thicker leg gives a larger garment.
+  r = Kgd("simulate knee_extension --json --body thigh_circumference_m=0.62 --body calf_circumference_m=0.42");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  const CommandRun d = Kgd("simulate knee_extension --json");
+  EXPECT_EQ(d.exit_code, 0) << d.output;
+  auto area = [](const std::string& out) { return std::stod(out.substr(out.find("\"garment_area_m2\":") + 18)); };
+  EXPECT_GT(area(r.output), 1.1 * area(d.output));
+}
+
 }  // namespace

@@ -96,6 +96,33 @@ Status ValidateJointAngles(const JointAngles& angles) {
   return Status::Ok();
 }
 
+Status SetMeasurement(BodyMeasurements* m, const std::string& name, double value) {
+  const std::pair<const char*, double*> fields[] = {
+      {"height_m", &m->height_m},
+      {"chest_circumference_m", &m->chest_circumference_m},
+      {"waist_circumference_m", &m->waist_circumference_m},
+      {"hip_circumference_m", &m->hip_circumference_m},
+      {"upper_arm_circumference_m", &m->upper_arm_circumference_m},
+      {"forearm_circumference_m", &m->forearm_circumference_m},
+      {"thigh_circumference_m", &m->thigh_circumference_m},
+      {"calf_circumference_m", &m->calf_circumference_m},
+      {"upper_arm_length_m", &m->upper_arm_length_m},
+      {"forearm_length_m", &m->forearm_length_m},
+      {"thigh_length_m", &m->thigh_length_m},
+      {"shank_length_m", &m->shank_length_m},
+      {"resolution_m", &m->resolution_m},
+  };
+  std::string known;
+  for (const auto& [n, field] : fields) {
+    if (name == n) {
+      *field = value;
+      return Status::Ok();
+    }
+    known += (known.empty() ? "" : ", ") + std::string(n);
+  }
+  return Status::Error("body measurement '" + name + "' is not known (known: " + known + ")");
+}
+
 Status ValidateMeasurements(const BodyMeasurements& m) {
   struct Range {
     const char* name;

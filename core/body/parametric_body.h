@@ -46,6 +46,10 @@ struct BodyMeasurements {
 // Ranges that keep the construction meaningful (e.g. a thigh thinner than the knee is refused).
 Status ValidateMeasurements(const BodyMeasurements& m);
 
+// Sets one measurement by its field name ("height_m", "upper_arm_circumference_m", ...); unknown names
+// are errors that list the known ones. The value is checked by ValidateMeasurements.
+Status SetMeasurement(BodyMeasurements* m, const std::string& name, double value);
+
 enum Bone : int {
   kPelvis, kLumbar, kThorax, kChest, kNeck, kHead,
   kClavicleL, kUpperArmL, kForearmL, kHandL, kClavicleR, kUpperArmR, kForearmR, kHandR,

@@ -665,6 +665,16 @@ std::vector<std::string> BuiltinSceneNames() {
   return names;
 }
 
+Result<SceneSpec> BuiltinScene(const std::string& name, const BodyMeasurements& measurements) {
+  for (const PaperMotion& m : PaperMotions())
+    if (m.name == name) {
+      Result<ParametricBody> body = BuildParametricBody(measurements);
+      if (!body.ok()) return body.status();
+      return PaperScene(*body, m);
+    }
+  return Status::Error("body measurements apply only to the paper's scenes on the parametric body, not to '" + name + "'");
+}
+
 Result<SceneSpec> BuiltinScene(const std::string& name) {
   for (const PaperMotion& m : PaperMotions())
     if (m.name == name) {

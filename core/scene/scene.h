@@ -39,6 +39,7 @@
 #include <string>
 #include <vector>
 
+#include "core/body/parametric_body.h"
 #include "core/mesh/trimesh.h"
 #include "core/scene/body_garment.h"
 #include "core/sim/garment_system.h"
@@ -97,6 +98,8 @@ Result<GarmentModel> BuildGarmentModel(const SceneSpec& spec);
 // Scenes built into the program (no files needed).
 std::vector<std::string> BuiltinSceneNames();
 Result<SceneSpec> BuiltinScene(const std::string& name);
+// The same with the paper's scenes on a parametric body made to these measurements.
+Result<SceneSpec> BuiltinScene(const std::string& name, const BodyMeasurements& body);
 
 // Pieces of the built-in scenes, for tests and benchmarks.
 // Pull test of the paper's 2D validation: 10 x 14 cm, 2.5 mm grid, 2 cm clamp strips, the far one moved
