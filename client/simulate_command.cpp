@@ -5,11 +5,10 @@
 #include <iostream>
 #include <memory>
 #include <optional>
-#include <stdexcept>
 #include <nlohmann/json.hpp>
 
+#include "client/body_command.h"
 #include "core/mesh/mesh_io.h"
-#include "core/body/parametric_body.h"
 #include "core/scene/paper_scenes.h"
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
@@ -30,30 +29,10 @@ struct SimulateOptions {
   std::vector<std::string> body;
 };
 
-// `--body name=value` options: measurements of the parametric body (SI).
-Result<std::optional<BodyMeasurements>> ParseBody(const std::vector<std::string>& items) {
-  if (items.empty()) return std::optional<BodyMeasurements>();
-  BodyMeasurements m;
-  for (const std::string& item : items) {
-    const size_t eq = item.find('=');
-    if (eq == std::string::npos) return Status::Error("--body " + item + ": expected name=value, e.g. upper_arm_circumference_m=0.32");
-    double value = 0;
-    try {
-      size_t used = 0;
-      value = std::stod(item.substr(eq + 1), &used);
-      if (used != item.size() - eq - 1) throw std::invalid_argument("trailing");
-    } catch (const std::exception&) {
-      return Status::Error("--body " + item + ": '" + item.substr(eq + 1) + "' is not a number");
-    }
-    if (Status st = SetMeasurement(&m, item.substr(0, eq), value); !st.ok()) return st;
-  }
-  return std::optional<BodyMeasurements>(m);
-}
-
 // A scene argument is a scene file if it exists, else the name of a built-in scene (on a parametric
 // body made to `body`, when given).
 Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items = {}) {
-  Result<std::optional<BodyMeasurements>> body = ParseBody(body_items);
+  Result<std::optional<BodyMeasurements>> body = ParseBodyMeasurements(body_items);
   if (!body.ok()) return body.status();
   if (std::filesystem::exists(arg)) {
     if (*body) return Status::Error(arg + ": --body applies to built-in scenes, not to scene files");

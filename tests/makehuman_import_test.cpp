@@ -34,6 +34,8 @@ const Motion kMotions[] = {
     {"lunge", "shorts", 4, false, 2},
 };
 
+void PrintTo(const Motion& m, std::ostream* os) { *os << m.name; }
+
 fs::path BodiesDir() { return fs::path(KGD_SOURCE_DIR) / ".." / "shared" / "bodies" / "makehuman"; }
 
 class MakeHumanImport : public ::testing::TestWithParam<Motion> {};

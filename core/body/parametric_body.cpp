@@ -660,6 +660,21 @@ void RepairFolds(const ParametricBody& body, const PosedField& field, const std:
 
 }  // namespace
 
+std::vector<JointAngles> MotionKeyframes(const JointAngles& rest, const JointAngles& pose, int frames) {
+  JointAngles r;
+  for (const std::string& n : JointAngleNames()) r[n] = Angle(rest, n);
+  JointAngles p = r;
+  for (const auto& [n, v] : pose) p[n] = v;
+  std::vector<JointAngles> keys = {r};
+  const int steps = std::max(frames, 1);
+  for (int k = 1; k <= steps; ++k) {
+    JointAngles f;
+    for (const auto& [n, v] : r) f[n] = v + (p.at(n) - v) * k / steps;
+    keys.push_back(f);
+  }
+  return keys;
+}
+
 Result<std::vector<Positions>> PoseSequence(const ParametricBody& body, const std::vector<JointAngles>& keyframes) {
   for (size_t i = 0; i < keyframes.size(); ++i)
     if (Status st = ValidateJointAngles(keyframes[i]); !st.ok()) return st.WithContext("keyframe " + std::to_string(i) + ": ");

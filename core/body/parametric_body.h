@@ -106,6 +106,11 @@ std::function<double(const Eigen::Vector3d&)> BodyImplicit(const ParametricBody&
 // relaxation of folded patches), so a pose depends on the path: see PoseSequence.
 Result<Positions> PoseBody(const ParametricBody& body, const JointAngles& angles);
 
+// A motion's keyframes: its rest pose, then `frames` poses interpolating every angle linearly, frame k
+// at t = k / frames (the last is `pose`). Angles missing from `rest` take the body's rest values; angles
+// missing from `pose` keep their value in `rest`. With frames = 0: {rest, pose}.
+std::vector<JointAngles> MotionKeyframes(const JointAngles& rest, const JointAngles& pose, int frames);
+
 // The rest mesh's vertices at each keyframe, moving from the rest pose through the keyframes in
 // order (joint angles interpolated linearly between consecutive keyframes). A motion's frames are
 // its keyframes; posing them in one sequence is cheaper than one by one.

@@ -5,7 +5,6 @@
 #include <map>
 #include <cmath>
 #include <numbers>
-#include <set>
 
 #include "core/mesh/topology.h"
 
@@ -182,25 +181,7 @@ Result<const ParametricBody*> DefaultParametricBody() {
 Result<SceneSpec> PaperScene(const ParametricBody& body, const PaperMotion& motion) {
   Result<BodyRegion> region = ParametricGarmentRegion(body, motion.garment);
   if (!region.ok()) return region.status();
-  // Keyframes: the motion's rest, then its frames (angles interpolated linearly).
-  std::set<std::string> names;
-  for (const auto& [n, v] : motion.rest) names.insert(n);
-  for (const auto& [n, v] : motion.pose) names.insert(n);
-  const JointAngles body_rest = RestAngles();
-  auto at = [&](const JointAngles& a, const std::string& n) {
-    if (a.count(n)) return a.at(n);
-    if (motion.rest.count(n)) return motion.rest.at(n);
-    return body_rest.count(n) ? body_rest.at(n) : 0.0;
-  };
-  std::vector<JointAngles> keys;
-  JointAngles rest;
-  for (const auto& n : names) rest[n] = at(motion.rest, n);
-  keys.push_back(rest);
-  for (int k = 1; k <= motion.frames; ++k) {
-    JointAngles f;
-    for (const auto& n : names) f[n] = at(motion.rest, n) + (at(motion.pose, n) - at(motion.rest, n)) * k / motion.frames;
-    keys.push_back(f);
-  }
+  const std::vector<JointAngles> keys = MotionKeyframes(motion.rest, motion.pose, motion.frames);
   Result<std::vector<Positions>> poses = PoseSequence(body, keys);
   if (!poses.ok()) return poses.status().WithContext(motion.name + ": ");
   SceneSpec s;
