@@ -91,6 +91,17 @@ TEST_P(BuiltinScene, PosesGarmentAndFullyReinforcedFrames) {
     EXPECT_GT(r.reinforced_energy_J, previous) << name << " frame " << k + 1;
     previous = r.reinforced_energy_J;
   }
+
+  // The deformed pose on its own, from the body (what `kgd simulate NAME` does): the same equilibrium.
+  const Result<SimulationResult> cold = SimulateScene(*scene);
+  ASSERT_TRUE(cold.ok()) << cold.message();
+  std::printf("  deformed pose, cold: %s, %d iterations, %.2f s, E %.6g J, min phi %.3f mm, inverted %d\n",
+              ToString(cold->solve.status), cold->solve.iterations, cold->solve.seconds, cold->solve.energy_J, 1e3 * cold->min_phi_m,
+              cold->inverted_faces);
+  EXPECT_TRUE(cold->solve.converged()) << name << ": " << cold->solve.message;
+  EXPECT_GE(cold->min_phi_m, -kPenetrationTolerance_m) << name;
+  EXPECT_EQ(cold->inverted_faces, 0) << name;
+  EXPECT_NEAR(cold->solve.energy_J, frames->back().solve.energy_J, 0.02 * frames->back().solve.energy_J) << name;
 }
 
 INSTANTIATE_TEST_SUITE_P(Paper, BuiltinScene,
