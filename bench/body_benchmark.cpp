@@ -14,7 +14,7 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 
 void BM_BuildParametricBody(benchmark::State& state) {
   BodyMeasurements m;
-  m.resolution_m = state.range(0) * 1e-3;
+  m.resolution_m = state.range(0) / 1000.0;
   for (auto _ : state) {
     Result<ParametricBody> b = BuildParametricBody(m);
     if (!b.ok()) state.SkipWithError(b.message().c_str());

@@ -96,57 +96,51 @@ Status ValidateJointAngles(const JointAngles& angles) {
   return Status::Ok();
 }
 
+namespace {
+
+// Every measurement with its name and the range that keeps the construction meaningful.
+struct MeasurementField {
+  const char* name;
+  double BodyMeasurements::*field;
+  double lo, hi;
+};
+constexpr MeasurementField kMeasurementFields[] = {
+    {"height_m", &BodyMeasurements::height_m, 1.2, 2.2},
+    {"chest_circumference_m", &BodyMeasurements::chest_circumference_m, 0.6, 1.6},
+    {"waist_circumference_m", &BodyMeasurements::waist_circumference_m, 0.5, 1.6},
+    {"hip_circumference_m", &BodyMeasurements::hip_circumference_m, 0.6, 1.6},
+    {"upper_arm_circumference_m", &BodyMeasurements::upper_arm_circumference_m, 0.18, 0.50},
+    {"forearm_circumference_m", &BodyMeasurements::forearm_circumference_m, 0.15, 0.40},
+    {"thigh_circumference_m", &BodyMeasurements::thigh_circumference_m, 0.35, 0.85},
+    {"calf_circumference_m", &BodyMeasurements::calf_circumference_m, 0.25, 0.55},
+    {"upper_arm_length_m", &BodyMeasurements::upper_arm_length_m, 0.2, 0.42},
+    {"forearm_length_m", &BodyMeasurements::forearm_length_m, 0.18, 0.36},
+    {"thigh_length_m", &BodyMeasurements::thigh_length_m, 0.3, 0.6},
+    {"shank_length_m", &BodyMeasurements::shank_length_m, 0.3, 0.6},
+    {"resolution_m", &BodyMeasurements::resolution_m, 0.004, 0.013},
+};
+
+}  // namespace
+
 Status SetMeasurement(BodyMeasurements* m, const std::string& name, double value) {
-  const std::pair<const char*, double*> fields[] = {
-      {"height_m", &m->height_m},
-      {"chest_circumference_m", &m->chest_circumference_m},
-      {"waist_circumference_m", &m->waist_circumference_m},
-      {"hip_circumference_m", &m->hip_circumference_m},
-      {"upper_arm_circumference_m", &m->upper_arm_circumference_m},
-      {"forearm_circumference_m", &m->forearm_circumference_m},
-      {"thigh_circumference_m", &m->thigh_circumference_m},
-      {"calf_circumference_m", &m->calf_circumference_m},
-      {"upper_arm_length_m", &m->upper_arm_length_m},
-      {"forearm_length_m", &m->forearm_length_m},
-      {"thigh_length_m", &m->thigh_length_m},
-      {"shank_length_m", &m->shank_length_m},
-      {"resolution_m", &m->resolution_m},
-  };
   std::string known;
-  for (const auto& [n, field] : fields) {
-    if (name == n) {
-      *field = value;
+  for (const MeasurementField& f : kMeasurementFields) {
+    if (name == f.name) {
+      m->*f.field = value;
       return Status::Ok();
     }
-    known += (known.empty() ? "" : ", ") + std::string(n);
+    known += (known.empty() ? "" : ", ") + std::string(f.name);
   }
   return Status::Error("body measurement '" + name + "' is not known (known: " + known + ")");
 }
 
 Status ValidateMeasurements(const BodyMeasurements& m) {
-  struct Range {
-    const char* name;
-    double value, lo, hi;
-  };
-  const Range ranges[] = {
-      {"height_m", m.height_m, 1.2, 2.2},
-      {"chest_circumference_m", m.chest_circumference_m, 0.6, 1.6},
-      {"waist_circumference_m", m.waist_circumference_m, 0.5, 1.6},
-      {"hip_circumference_m", m.hip_circumference_m, 0.6, 1.6},
-      {"upper_arm_circumference_m", m.upper_arm_circumference_m, 0.18, 0.50},
-      {"forearm_circumference_m", m.forearm_circumference_m, 0.15, 0.40},
-      {"thigh_circumference_m", m.thigh_circumference_m, 0.35, 0.85},
-      {"calf_circumference_m", m.calf_circumference_m, 0.25, 0.55},
-      {"upper_arm_length_m", m.upper_arm_length_m, 0.2, 0.42},
-      {"forearm_length_m", m.forearm_length_m, 0.18, 0.36},
-      {"thigh_length_m", m.thigh_length_m, 0.3, 0.6},
-      {"shank_length_m", m.shank_length_m, 0.3, 0.6},
-      {"resolution_m", m.resolution_m, 0.004, 0.013},
-  };
-  for (const Range& r : ranges)
-    if (!std::isfinite(r.value) || r.value < r.lo || r.value > r.hi)
-      return Status::Error("body measurement " + std::string(r.name) + " = " + std::to_string(r.value) +
-                           " is outside [" + std::to_string(r.lo) + ", " + std::to_string(r.hi) + "]");
+  for (const MeasurementField& f : kMeasurementFields) {
+    const double v = m.*f.field;
+    if (!std::isfinite(v) || v < f.lo || v > f.hi)
+      return Status::Error("body measurement " + std::string(f.name) + " = " + std::to_string(v) + " is outside [" +
+                           std::to_string(f.lo) + ", " + std::to_string(f.hi) + "]");
+  }
   const double s = m.height_m / 1.70;
   const double legs = 0.075 * s + m.thigh_length_m + m.shank_length_m;
   const double torso = m.height_m - 0.245 * s - legs;
