@@ -1,16 +1,12 @@
 // Parametric body and built-in scenes: what a design job pays before its first simulation.
 #include <benchmark/benchmark.h>
 
-#include <numbers>
-
 #include "core/body/parametric_body.h"
 #include "core/scene/paper_scenes.h"
 #include "core/scene/simulate.h"
 
 namespace kgd {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 void BM_BuildParametricBody(benchmark::State& state) {
   BodyMeasurements m;
@@ -23,18 +19,14 @@ void BM_BuildParametricBody(benchmark::State& state) {
 }
 BENCHMARK(BM_BuildParametricBody)->Arg(13)->Arg(8)->Unit(benchmark::kMillisecond);
 
-// Posing from rest: elbow 100 degrees (arm flexion's deformed pose) and the crouch.
+// Posing from rest to a built-in motion's deformed pose: arm flexion (elbow 100 degrees) and the crouch.
 void BM_PoseBody(benchmark::State& state) {
   static const Result<const ParametricBody*> body = DefaultParametricBody();
-  const JointAngles pose = state.range(0) == 0
-                               ? JointAngles{{"r_elbow_flex", 100 * kDeg}}
-                               : JointAngles{{"l_hip_flex", 85 * kDeg}, {"r_hip_flex", 85 * kDeg}, {"l_knee_flex", 90 * kDeg},
-                                             {"r_knee_flex", 90 * kDeg}, {"l_shoulder_flex", 90 * kDeg},
-                                             {"r_shoulder_flex", 90 * kDeg}, {"trunk_pitch", 20 * kDeg}};
-  for (auto _ : state) benchmark::DoNotOptimize(PoseBody(**body, pose));
-  state.SetLabel(state.range(0) == 0 ? "arm_flexion" : "crouch");
+  const PaperMotion motion = PaperMotions()[state.range(0)];
+  for (auto _ : state) benchmark::DoNotOptimize(PoseBody(**body, motion.pose));
+  state.SetLabel(motion.name);
 }
-BENCHMARK(BM_PoseBody)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PoseBody)->Arg(0)->Arg(5)->Unit(benchmark::kMillisecond);
 
 // A built-in scene from nothing (body cached): posing through all frames, cutting the garment.
 void BM_PaperScene(benchmark::State& state) {

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <memory>
 #include <numeric>
 #include <numbers>
 
@@ -397,11 +396,6 @@ BodyPrimitive MakePrimitive(int bone, const V3& a, const V3& b, double r1a, doub
 }
 
 }  // namespace
-
-std::function<double(const Eigen::Vector3d&)> BodyImplicit(const ParametricBody& body, const JointAngles& angles) {
-  auto field = std::make_shared<const PosedField>(body, angles);
-  return [field](const Eigen::Vector3d& p) { return (*field)(p); };
-}
 
 Eigen::Vector3d BoneEnd(const ParametricBody& body, int bone) {
   for (int c = 0; c < kNumBones; ++c)

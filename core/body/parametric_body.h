@@ -16,7 +16,6 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
-#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -97,9 +96,6 @@ Result<ParametricBody> BuildParametricBody(const BodyMeasurements& m = {});
 
 // Rigid motion of every bone from rest to the pose `angles` (rest values where a name is missing).
 std::array<Eigen::Isometry3d, kNumBones> BoneTransforms(const ParametricBody& body, const JointAngles& angles);
-
-// The implicit body in a pose: negative inside, about the distance to the surface near it (m).
-std::function<double(const Eigen::Vector3d&)> BodyImplicit(const ParametricBody& body, const JointAngles& angles);
 
 // The rest mesh's vertices in the pose `angles`. The skin moves from the rest pose in steps of at most
 // 10 degrees per joint (each step: skinning increment, projection onto that step's implicit body,
