@@ -5,3 +5,4 @@ build=${1:-build}
 nproc; lscpu | grep -E "Model name|^CPU\(s\)" || true
 "$build/bench/simulate_benchmark" --benchmark_counters_tabular=true "${@:2}"
 "$build/bench/body_benchmark" --benchmark_counters_tabular=true "${@:2}"
+"$build/bench/design_benchmark" --benchmark_counters_tabular=true "${@:2}"

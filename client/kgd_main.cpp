@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "client/body_command.h"
+#include "client/design_command.h"
 #include "client/simulate_command.h"
 
 int main(int argc, char** argv) {
@@ -11,6 +12,7 @@ int main(int argc, char** argv) {
   int exit_code = 0;
   kgd::cli::AddSimulateCommands(app, &exit_code);
   kgd::cli::AddBodyCommand(app, &exit_code);
+  kgd::cli::AddDesignCommands(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

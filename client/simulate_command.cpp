@@ -29,20 +29,6 @@ struct SimulateOptions {
   std::vector<std::string> body;
 };
 
-// A scene argument is a scene file if it exists, else the name of a built-in scene (on a parametric
-// body made to `body`, when given).
-Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items = {}) {
-  Result<std::optional<BodyMeasurements>> body = ParseBodyMeasurements(body_items);
-  if (!body.ok()) return body.status();
-  if (std::filesystem::exists(arg)) {
-    if (*body) return Status::Error(arg + ": --body applies to built-in scenes, not to scene files");
-    return LoadScene(arg);
-  }
-  if (arg.find('/') != std::string::npos || (arg.size() > 5 && arg.substr(arg.size() - 5) == ".json"))
-    return Status::Error(arg + ": no such scene file");
-  return *body ? BuiltinScene(arg, **body) : BuiltinScene(arg);
-}
-
 nlohmann::json ResultJson(const SceneSpec& scene, const SimulationResult& r) {
   nlohmann::json j;
   j["scene"] = scene.name;
@@ -53,6 +39,7 @@ nlohmann::json ResultJson(const SceneSpec& scene, const SimulationResult& r) {
   j["contact_energy_J"] = r.solve.energies.contact_J;
   j["attachment_energy_J"] = r.solve.energies.attachment_J;
   j["fold_barrier_energy_J"] = r.solve.energies.fold_barrier_J;
+  j["friction_energy_J"] = r.solve.energies.friction_J;
   j["reinforced_energy_J"] = r.reinforced_energy_J;
   j["reinforced_area_m2"] = r.reinforced_area_m2;
   j["reinforced_density_J_per_m2"] = r.reinforced_density_J_per_m2;
@@ -185,6 +172,18 @@ int RunSimulate(const SimulateOptions& o) {
 }
 
 }  // namespace
+
+Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items) {
+  Result<std::optional<BodyMeasurements>> body = ParseBodyMeasurements(body_items);
+  if (!body.ok()) return body.status();
+  if (std::filesystem::exists(arg)) {
+    if (*body) return Status::Error(arg + ": --body applies to built-in scenes, not to scene files");
+    return LoadScene(arg);
+  }
+  if (arg.find('/') != std::string::npos || (arg.size() > 5 && arg.substr(arg.size() - 5) == ".json"))
+    return Status::Error(arg + ": no such scene file");
+  return *body ? BuiltinScene(arg, **body) : BuiltinScene(arg);
+}
 
 void AddSimulateCommands(CLI::App& app, int* exit_code) {
   auto opts = std::make_shared<SimulateOptions>();

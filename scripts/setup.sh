@@ -11,6 +11,7 @@ PACKAGES=(
   libnanoflann-dev         # k-d tree for the body field's neighbour search
   libcli11-dev             # command-line parsing for the kgd CLI
   nlohmann-json3-dev       # scene files and --json output
+  libhdf5-dev              # design files: the history of a design job (meshes, designs, positions)
   libgtest-dev libgmock-dev  # unit and integration tests
   libbenchmark-dev         # benchmarks in bench/
 )

@@ -2,6 +2,8 @@
 // element, exit code 2, never a crash.
 #include <gtest/gtest.h>
 
+#include "tests/kgd_cli.h"
+
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -12,20 +14,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct CommandRun {
-  int exit_code;
-  std::string output;
-};
-
-CommandRun Kgd(const std::string& args) {
-  const std::string cmd = std::string(KGD_BINARY) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) out.append(buf.data(), n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), out};
-}
+using ::kgd::cli_test::CommandRun;
+using ::kgd::cli_test::Kgd;
 
 class BadInput : public ::testing::Test {
  protected:

@@ -49,6 +49,11 @@ Eigen::VectorXd FilterSensitivities(const Eigen::VectorXd& values, const Faces& 
   return out;
 }
 
+Eigen::VectorXd AverageSensitivities(const Eigen::VectorXd& current, const Eigen::VectorXd& previous) {
+  if (previous.size() != current.size()) return current;
+  return 0.5 * (current + previous);
+}
+
 double NextTargetArea(double current, double final_area, double er) {
   if (current > final_area) return std::max(final_area, current * (1.0 - er));
   return std::min(final_area, current * (1.0 + er));

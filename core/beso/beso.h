@@ -22,7 +22,8 @@ struct BesoSettings {
   double admission_ratio = 0.015;     // AR_max: at most this fraction of the garment area turns reinforced per iteration
   double d_min = 0.001;               // minimum design variable of the soft material
   double penalty = 1.6;               // p: SIMP-style interpolation exponent
-  bool temporal_averaging = true;     // average filtered sensitivities with the previous iteration's
+  bool temporal_averaging = true;     // average filtered sensitivities with the previous iteration's ...
+  bool average_with_raw = false;      // ... averaged ones (Huang & Xie, the paper), or filtered-only ones (the authors' code)
   bool keep_attachments = false;      // attachment triangles stay reinforced
   double tau = 1e-3;                  // convergence: relative objective change below tau ...
   int converge_window = 5;            // ... over this many iterations, with the target area reached
@@ -43,6 +44,10 @@ Eigen::VectorXd Sensitivities(const Eigen::VectorXd& density_Pa, const std::vect
 // mean of its three nodes.
 Eigen::VectorXd FilterSensitivities(const Eigen::VectorXd& element_values, const Faces& faces, int num_vertices,
                                     const Eigen::VectorXd& element_area);
+
+// Temporal averaging (paper eq. 8, after Huang & Xie 2007): (current + previous) / 2; `previous`
+// empty (the first update) leaves `current` as is.
+Eigen::VectorXd AverageSensitivities(const Eigen::VectorXd& current, const Eigen::VectorXd& previous);
 
 // The next target area: A (1 - ER), not below the final target A*; A (1 + ER), not above it, when
 // below (the bi-directional case).

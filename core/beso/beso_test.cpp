@@ -36,6 +36,18 @@ TEST(Beso, FilterAveragesThroughTheNodesByArea) {
   EXPECT_NEAR(c[1], 2.0, 1e-15);
 }
 
+TEST(Beso, AveragingHalvesWithThePreviousIteration) {
+  Eigen::VectorXd now(3), before(3);
+  now << 2.0, 4.0, 0.0;
+  before << 0.0, 2.0, 6.0;
+  const Eigen::VectorXd avg = AverageSensitivities(now, before);
+  EXPECT_DOUBLE_EQ(avg[0], 1.0);
+  EXPECT_DOUBLE_EQ(avg[1], 3.0);
+  EXPECT_DOUBLE_EQ(avg[2], 3.0);
+  // First update: nothing to average with.
+  EXPECT_TRUE(AverageSensitivities(now, Eigen::VectorXd()) == now);
+}
+
 TEST(Beso, TargetAreaFollowsTheEvolutionaryRatio) {
   EXPECT_DOUBLE_EQ(NextTargetArea(1.0, 0.15, 0.015), 0.985);
   EXPECT_DOUBLE_EQ(NextTargetArea(0.152, 0.15, 0.015), 0.15);  // never past the final target

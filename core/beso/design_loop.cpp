@@ -5,19 +5,55 @@
 #include "core/scene/simulate.h"
 
 namespace kgd {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+bool TargetReached(double target_m2, double final_m2) { return target_m2 <= final_m2 * (1 + 1e-12); }
+
+std::vector<double> Objective(const std::vector<BesoIteration>& history) {
+  std::vector<double> e;
+  e.reserve(history.size());
+  for (const BesoIteration& it : history) e.push_back(it.energy_J);
+  return e;
+}
+
+}  // namespace
+
+bool BesoFinished(const std::vector<BesoIteration>& history, const BesoSettings& settings, double garment_area_m2) {
+  if (history.empty()) return false;
+  if (history.back().iteration >= settings.max_iterations) return true;
+  return BesoConverged(Objective(history), TargetReached(history.back().target_area_m2, settings.budget * garment_area_m2),
+                       settings.tau, settings.converge_window);
+}
 
 Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const BesoSettings& settings,
-                                           const std::function<bool(const BesoIteration&)>& on_iteration) {
+                                           const std::function<bool(const BesoIteration&)>& on_iteration,
+                                           const std::vector<BesoIteration>* resume) {
   if (Status st = ValidateBesoSettings(settings); !st.ok()) return st;
   SceneSpec scene = scene_in;
   const int nf = static_cast<int>(scene.garment.faces.rows());
-  std::vector<uint8_t> design(nf, kReinforced);
-  scene.design = design;
+  const int nv = static_cast<int>(scene.garment.vertices.rows());
+  scene.design.assign(nf, kReinforced);
+  std::vector<BesoIteration> past;  // energies of earlier iterations (for the stop rule)
+  const BesoIteration* last = nullptr;
+  if (resume && !resume->empty()) {
+    past = *resume;
+    last = &resume->back();
+    if (static_cast<int>(last->design.size()) != nf || last->positions.rows() != nv ||
+        (last->iteration > 0 && last->sensitivity.size() != nf))
+      return Status::Error("cannot resume: the stored iteration " + std::to_string(last->iteration) + " has " +
+                           std::to_string(last->design.size()) + " faces and " + std::to_string(last->positions.rows()) +
+                           " vertices, the scene " + std::to_string(nf) + " and " + std::to_string(nv));
+    if (last->iteration != static_cast<int>(resume->size()) - 1)
+      return Status::Error("cannot resume: the stored iterations are not contiguous from 0");
+    scene.design = last->design;
+  }
   Result<GarmentModel> model = BuildGarmentModel(scene);
   if (!model.ok()) return model.status();
   GarmentSystem sys(std::move(model).value(), scene.initial);
   Simulator sim(&sys);
-  Positions x = scene.initial;
   const Positions& reference = scene.on_body.rows() ? scene.on_body : scene.initial;
 
   Eigen::VectorXd area(nf);
@@ -26,34 +62,65 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
   std::vector<uint8_t> locked;
   if (settings.keep_attachments) {
     locked.assign(nf, 0);
-    for (int f : scene.attachment_faces) locked[f] = 1;
+    double locked_area = 0;
+    for (int f : scene.attachment_faces) {
+      locked_area += locked[f] ? 0.0 : area[f];
+      locked[f] = 1;
+    }
+    if (locked_area > final_area)
+      return Status::Error("keep_attachments: the attachment bands cover " + std::to_string(100 * locked_area / total_area) +
+                           " % of the garment, more than the budget of " + std::to_string(100 * settings.budget) + " %");
   }
 
-  std::vector<BesoIteration> history;
-  std::vector<double> objective;
-  Eigen::VectorXd previous;
-  double target = total_area;
-  double full_density = 0;
-  for (int it = 0; it <= settings.max_iterations; ++it) {
+  std::vector<BesoIteration> out;
+  std::vector<uint8_t> design = scene.design;
+  Positions x = last ? last->positions : scene.initial;
+  Eigen::VectorXd previous = last ? last->sensitivity : Eigen::VectorXd();
+  Eigen::VectorXd density = last ? last->energy_density_Pa : Eigen::VectorXd();  // W at x
+  double target = last ? last->target_area_m2 : total_area;
+  double full_density = past.empty() ? 0.0 : past.front().reinforced_density_J_per_m2;
+  if (last && BesoFinished(past, settings, total_area)) return out;
+  for (int it = last ? last->iteration + 1 : 0; it <= settings.max_iterations; ++it) {
+    BesoIteration b;
+    const auto t_iteration = Clock::now();
     if (it > 0) {
       // Rank on the last equilibrium and move the design towards the next target area.
-      Eigen::VectorXd density;
-      sys.FaceDensities(x, &density, nullptr);
+      auto t0 = Clock::now();
+      if (density.size() != nf) sys.FaceDensities(x, &density, nullptr);
       const Eigen::VectorXd s = Sensitivities(density, design, scene.reinforced.youngs_modulus_Pa, scene.cloth.youngs_modulus_Pa,
                                               settings.d_min, settings.penalty);
-      Eigen::VectorXd filtered = FilterSensitivities(s, scene.garment.faces, sys.num_vertices(), area);
-      if (settings.temporal_averaging && previous.size() == filtered.size()) filtered = 0.5 * (filtered + previous);
-      previous = filtered;
+      b.sensitivity_s = Since(t0);
+      t0 = Clock::now();
+      Eigen::VectorXd filtered = FilterSensitivities(s, scene.garment.faces, nv, area);
+      const Eigen::VectorXd raw = filtered;
+      if (settings.temporal_averaging) filtered = AverageSensitivities(filtered, previous);
+      previous = settings.average_with_raw ? raw : filtered;
+      b.filter_s = Since(t0);
+      t0 = Clock::now();
       target = NextTargetArea(target, final_area, settings.evolutionary_ratio);
       design = UpdateDesign(filtered, area, design, target, settings.admission_ratio * total_area,
                             settings.keep_attachments ? &locked : nullptr);
       sys.SetDesign(design);
+      b.update_s = Since(t0);
+      b.sensitivity = previous;
     }
-    const auto t0 = std::chrono::steady_clock::now();
-    const SolveReport report = sim.Solve(&x, scene.solver);
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    // A fresh factorization per iteration keeps each iteration a function of the previous record only
+    // (resumable bit for bit); within the iteration the factorization is reused as usual.
+    sim.ResetFactorization();
+    const auto t0 = Clock::now();
+    SolveReport report = SolveLagged(sim, sys, &x, scene.solver);
+    if (!report.converged() && it > 0) {
+      // From the last equilibrium the solver can wander into a path it cannot finish (a pleat pressed
+      // against the fold barrier); the garment on the body is the start the scene was made for.
+      x = scene.initial;
+      sim.ResetFactorization();
+      const int first_iterations = report.iterations;
+      report = SolveLagged(sim, sys, &x, scene.solver);
+      report.iterations += first_iterations;
+      b.cold_restart = 1;
+    }
+    b.simulation_s = Since(t0);
     const SimulationResult r = Summarize(sys, x, reference, report);
-    BesoIteration b;
     b.iteration = it;
     b.target_area_m2 = target;
     b.area_fraction = r.reinforced_area_m2 / total_area;
@@ -64,18 +131,25 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
     b.density_ratio = full_density > 0 ? r.reinforced_density_J_per_m2 / full_density : 0.0;
     b.status = report.status;
     b.solver_iterations = report.iterations;
-    b.seconds = seconds;
     b.design = design;
     b.positions = x;
-    history.push_back(b);
+    b.energy_density_Pa = r.face_density_Pa;
+    density = r.face_density_Pa;
+    b.total_s = Since(t_iteration);
     if (!report.converged())
       return Status::Error("BESO iteration " + std::to_string(it) + ": the simulation did not converge (" + ToString(report.status) +
                            (report.message.empty() ? "" : ": " + report.message) + ")");
-    if (on_iteration && !on_iteration(history.back())) break;
-    objective.push_back(report.energy_J);
-    if (BesoConverged(objective, target <= final_area * (1 + 1e-12), settings.tau, settings.converge_window)) break;
+    past.push_back(b);
+    out.push_back(std::move(b));
+    if (on_iteration && !on_iteration(out.back())) break;
+    if (BesoFinished(past, settings, total_area)) break;
+    // Only the energies of earlier iterations are needed from here on.
+    past.back().positions.resize(0, 3);
+    past.back().energy_density_Pa.resize(0);
+    past.back().sensitivity.resize(0);
+    past.back().design.clear();
   }
-  return history;
+  return out;
 }
 
 }  // namespace kgd

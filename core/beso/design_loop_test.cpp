@@ -7,14 +7,20 @@
 namespace kgd {
 namespace {
 
-TEST(DesignLoop, PullTestDesignsMeetTheirTargetsAndConcentrateEnergy) {
-  Result<SceneSpec> scene = PullTestScene("all_cloth");
-  ASSERT_TRUE(scene.ok());
+// Quick BESO settings for the pull test: down to 60 % in 5 % steps.
+BesoSettings PullTestSettings(int max_iterations) {
   BesoSettings s;
   s.budget = 0.6;
   s.evolutionary_ratio = 0.05;
   s.admission_ratio = 0.05;
-  s.max_iterations = 25;
+  s.max_iterations = max_iterations;
+  return s;
+}
+
+TEST(DesignLoop, PullTestDesignsMeetTheirTargetsAndConcentrateEnergy) {
+  Result<SceneSpec> scene = PullTestScene("all_cloth");
+  ASSERT_TRUE(scene.ok());
+  BesoSettings s = PullTestSettings(25);
   const Result<std::vector<BesoIteration>> run = RunBeso(*scene, s);
   ASSERT_TRUE(run.ok()) << run.message();
   ASSERT_GT(run->size(), 10u);
@@ -33,6 +39,59 @@ TEST(DesignLoop, PullTestDesignsMeetTheirTargetsAndConcentrateEnergy) {
   const Result<std::vector<BesoIteration>> a = RunBeso(*scene, s), b = RunBeso(*scene, s);
   ASSERT_TRUE(a.ok() && b.ok());
   for (size_t k = 0; k < a->size(); ++k) EXPECT_EQ((*a)[k].design, (*b)[k].design) << "iteration " << k;
+}
+
+// Resuming from the records of iteration k gives the uninterrupted run's later iterations bit for bit,
+// with either temporal averaging.
+TEST(DesignLoop, ResumedRunsMatchUninterruptedOnes) {
+  Result<SceneSpec> scene = PullTestScene("all_cloth");
+  ASSERT_TRUE(scene.ok());
+  for (bool raw : {false, true}) {
+    BesoSettings s = PullTestSettings(10);
+    s.average_with_raw = raw;
+    const Result<std::vector<BesoIteration>> whole = RunBeso(*scene, s);
+    ASSERT_TRUE(whole.ok());
+    std::vector<BesoIteration> head(whole->begin(), whole->begin() + 5);
+    const Result<std::vector<BesoIteration>> tail = RunBeso(*scene, s, {}, &head);
+    ASSERT_TRUE(tail.ok()) << tail.message();
+    ASSERT_EQ(head.size() + tail->size(), whole->size());
+    for (size_t k = 0; k < tail->size(); ++k) {
+      const BesoIteration &a = (*tail)[k], &b = (*whole)[head.size() + k];
+      EXPECT_EQ(a.iteration, b.iteration);
+      EXPECT_EQ(a.design, b.design) << "iteration " << b.iteration;
+      EXPECT_TRUE(a.positions == b.positions) << "iteration " << b.iteration;
+      EXPECT_TRUE(a.sensitivity == b.sensitivity) << "iteration " << b.iteration;
+      EXPECT_EQ(a.energy_J, b.energy_J) << "iteration " << b.iteration;
+    }
+    // The two averagings are different procedures.
+    if (raw) {
+      BesoSettings paper = s;
+      paper.average_with_raw = false;
+      EXPECT_FALSE(whole->back().sensitivity == RunBeso(*scene, paper)->back().sensitivity);
+    }
+  }
+}
+
+TEST(DesignLoop, KeptAttachmentsStayReinforced) {
+  Result<SceneSpec> scene = PullTestScene("all_cloth");
+  ASSERT_TRUE(scene.ok());
+  BesoSettings s = PullTestSettings(12);
+  // Mark as attachments 40 faces that a free run turns to cloth.
+  const Result<std::vector<BesoIteration>> free_run = RunBeso(*scene, s);
+  ASSERT_TRUE(free_run.ok());
+  for (size_t f = 0; f < free_run->back().design.size() && scene->attachment_faces.size() < 40; ++f)
+    if (free_run->back().design[f] == kCloth) scene->attachment_faces.push_back(static_cast<int>(f));
+  ASSERT_EQ(scene->attachment_faces.size(), 40u);
+  s.keep_attachments = true;
+  const Result<std::vector<BesoIteration>> run = RunBeso(*scene, s);
+  ASSERT_TRUE(run.ok()) << run.message();
+  for (const BesoIteration& it : *run)
+    for (int f : scene->attachment_faces) ASSERT_EQ(it.design[f], kReinforced) << "iteration " << it.iteration << " face " << f;
+  // Bands larger than the budget cannot be kept.
+  s.budget = 0.005;  // the 40 faces are ~0.9 %
+  const Result<std::vector<BesoIteration>> too_small = RunBeso(*scene, s);
+  ASSERT_FALSE(too_small.ok());
+  EXPECT_NE(too_small.message().find("more than the budget"), std::string::npos) << too_small.message();
 }
 
 TEST(DesignLoop, BadSettingsAreRefused) {

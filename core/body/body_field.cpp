@@ -1,5 +1,6 @@
 #include "core/body/body_field.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <nanoflann.hpp>
@@ -65,6 +66,9 @@ void BodyField::RefreshCache(const Eigen::Vector3d& x, NeighborCache* cache) con
     const double reach = std::sqrt(h2_[k]) + margin_;
     if (d2 < reach * reach) cache->candidates.push_back(k);
   }
+  // The tree returns neighbours in an order that depends on the query point; index order makes the
+  // field's sums independent of where the cache was built (bit-identical resumed BESO runs).
+  std::sort(cache->candidates.begin(), cache->candidates.end());
   cache->center = x;
   ++cache->rebuilds;
 }

@@ -198,6 +198,7 @@ Result<SceneSpec> PaperScene(const ParametricBody& body, const PaperMotion& moti
   s.attachment_body_faces = region->attachment_faces;
   s.subdivisions = motion.subdivisions;
   s.effects.contact = ContactModel::kUnilateral;
+  s.effects.friction = kPaperSceneFriction;
   s.effects.attachments = true;
   if (Status st = CutGarmentFromMotion(&s, motion.name + ": garment " + motion.garment, motion.name + ": attachment bands"); !st.ok())
     return st;

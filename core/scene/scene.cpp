@@ -131,7 +131,8 @@ Result<SceneSpec> LoadScene(const std::string& path) {
   // Effects first: they decide what else is read.
   if (doc.contains("effects")) {
     const json& e = doc["effects"];
-    KGD_RETURN_IF_ERROR(r.CheckKeys(e, "effects", {"membrane", "relaxation", "fold_barrier", "contact", "attachments", "clamps"}));
+    KGD_RETURN_IF_ERROR(r.CheckKeys(e, "effects", {"membrane", "relaxation", "fold_barrier", "contact", "friction", "attachments", "clamps"}));
+    KGD_RETURN_IF_ERROR(r.Number(e, "effects", "friction", &s.effects.friction));
     KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "fold_barrier", &s.effects.fold_barrier));
     KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "membrane", &s.effects.membrane));
     KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "attachments", &s.effects.attachments));
@@ -390,6 +391,7 @@ Result<GarmentModel> BuildGarmentModel(const SceneSpec& s) {
   }
   if (s.effects.clamps) m.clamps = s.clamps;
   if (s.effects.fold_barrier && s.on_body.rows()) m.fold_reference = s.on_body;
+  if (s.effects.friction > 0 && s.on_body.rows()) m.friction_anchor = s.on_body;
   if (s.effects.contact != ContactModel::kNone) {
     if (!s.body) return Status::Error("effects.contact is on but the scene has no body");
     BodyFieldSettings bs;
@@ -502,7 +504,8 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
                       {"reinforced", MaterialJson(s.reinforced)}};
   doc["effects"] = {{"membrane", s.effects.membrane}, {"relaxation", RelaxationName(s.effects.relaxation)},
                     {"fold_barrier", s.effects.fold_barrier},
-                    {"contact", ContactName(s.effects.contact)}, {"attachments", s.effects.attachments},
+                    {"contact", ContactName(s.effects.contact)}, {"friction", s.effects.friction},
+                    {"attachments", s.effects.attachments},
                     {"clamps", s.effects.clamps}};
   if (s.body && !s.motion) {
     KGD_RETURN_IF_ERROR(WriteObj((dir / "body.obj").string(), s.body->vertices, s.body->faces));

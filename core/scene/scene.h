@@ -18,7 +18,8 @@
 //                 "cloth": {"youngs_modulus_Pa": 5e5, "poisson_ratio": 0.33, "thickness_m": 2.7e-4},
 //                 "reinforced": {...}},
 //   "effects": {"membrane": true, "relaxation": "exact" | "authors" | "none", "fold_barrier": true,
-//               "contact": "none" | "unilateral" | "bilateral", "attachments": false, "clamps": false},
+//               "contact": "none" | "unilateral" | "bilateral", "friction": 0.0 (Coulomb mu; needs contact),
+//               "attachments": false, "clamps": false},
 //   "body": {"mesh": "body_deformed.obj", "support_scale": 2.0},    // read only when contact is on
 //   -- or, with garment.region: the body's motion, every pose with the topology of "rest":
 //   "body": {"rest": "rest.obj", "deformed": "pose.obj", "frames": ["frames/frame_01.obj", ...]},

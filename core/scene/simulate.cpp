@@ -51,7 +51,7 @@ Result<SimulationResult> SimulateScene(const SceneSpec& scene) {
   GarmentSystem sys(std::move(model).value(), scene.initial);
   Simulator sim(&sys);
   Positions x = scene.initial;
-  const SolveReport report = sim.Solve(&x, scene.solver);
+  const SolveReport report = SolveLagged(sim, sys, &x, scene.solver);
   // Inversion is judged against the garment lying on the body where the scene has one.
   return Summarize(sys, x, scene.on_body.rows() ? scene.on_body : scene.initial, report);
 }
@@ -70,6 +70,9 @@ Result<std::vector<SimulationResult>> SimulateFrames(const SceneSpec& scene,
       // Where the garment slid or lifted off, the body's displacement can fold a compressed triangle
       // over; then this frame starts on the body instead.
       if (scene.effects.fold_barrier && CountFoldedFaces(on_body, start, scene.garment.faces) > 0) start = on_body;
+      // With friction every frame is the garment put on in that pose and released (the definition the
+      // design loop uses for the deformed pose): a warm start would drag the friction's history along.
+      if (scene.effects.friction > 0) start = on_body;
     }
     Result<SimulationResult> r = SimulateScene(SceneAtFrame(scene, static_cast<int>(k), start));
     if (!r.ok()) return r.status().WithContext("frame " + std::to_string(k + 1) + ": ");

@@ -31,12 +31,14 @@ struct SimulationResult {
 };
 
 // Builds the model (and the body field only if contact is on), solves from the scene's initial
-// positions and summarizes.
+// positions and summarizes. With friction its data are lagged at the start and updated once
+// (SolveLagged): the garment on the body presses on nothing, so the first pass is frictionless.
 Result<SimulationResult> SimulateScene(const SceneSpec& scene);
 
 // Simulates a scene cut from a body through every frame of its motion, in order. Frame 1 starts on
-// the body; every later frame starts from the previous equilibrium moved with the body, so each solve
-// is warm. `on_frame` (optional) receives each frame's index (0-based) and result as soon as it is
+// the body; without friction every later frame starts from the previous equilibrium moved with the
+// body, so each solve is warm; with friction every frame starts on the body (the garment put on in
+// that pose), as the design loop's deformed pose does. `on_frame` (optional) receives each frame's index (0-based) and result as soon as it is
 // solved. Errors if the scene has no frames.
 Result<std::vector<SimulationResult>> SimulateFrames(const SceneSpec& scene,
                                                      const std::function<void(int, const SimulationResult&)>& on_frame = {});

@@ -40,6 +40,12 @@ Status ValidateModel(const GarmentModel& m) {
                            " (expected 0 = cloth or 1 = reinforced)");
   if (Status s = CheckMaterial(m.cloth, "materials.cloth"); !s.ok()) return s;
   if (Status s = CheckMaterial(m.reinforced, "materials.reinforced"); !s.ok()) return s;
+  if (!(m.effects.friction >= 0 && std::isfinite(m.effects.friction)))
+    return Status::Error("effects.friction (the friction coefficient) must be >= 0, got " + std::to_string(m.effects.friction));
+  if (m.effects.friction > 0 && m.effects.contact == ContactModel::kNone)
+    return Status::Error("effects.friction needs contact with the body (effects.contact)");
+  if (m.effects.friction > 0 && !(m.friction_slip_m > 0))
+    return Status::Error("friction slip distance must be > 0, got " + std::to_string(m.friction_slip_m));
   if (m.effects.contact != ContactModel::kNone) {
     if (!m.body) return Status::Error("effects.contact is on but the scene has no body");
     if (!(m.contact_stiffness_N_per_m > 0))
@@ -78,6 +84,7 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
   for (int f = 0; f < nf; ++f)
     elements_[f] = MakeMembraneElement(model_.rest.row(model_.faces(f, 0)), model_.rest.row(model_.faces(f, 1)),
                                        model_.rest.row(model_.faces(f, 2)));
+  if (model_.effects.friction > 0 && model_.friction_anchor.rows() != nv) model_.friction_anchor = initial;
   // Folds are measured against the garment on the body, or the orientation it starts with.
   if (model_.effects.fold_barrier) {
     const Positions& ref = model_.fold_reference.rows() ? model_.fold_reference : initial;
@@ -278,6 +285,7 @@ double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Ei
   const double attach_kf = attach ? AttachmentFaceStiffness(model_.attachments) : 0.0;
   std::vector<double> attach_energy(attach ? num_faces() : 0, 0.0);
   std::vector<double> fold_energy(fx.fold_barrier ? num_faces() : 0, 0.0);
+  std::vector<double> friction_energy(friction_.empty() ? 0 : num_vertices(), 0.0);
 
   // Faces: membrane and attachments. One colour at a time; faces of a colour share no vertex.
   for (const std::vector<int>& color : colors_) {
@@ -345,6 +353,14 @@ double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Ei
           EvaluateContactVertex(*model_.body, x.row(v).transpose(), &caches_[v], fx.contact,
                                 model_.contact_stiffness_N_per_m, want_grad ? &g : nullptr, want_hess ? &H : nullptr, true);
       vertex_energy_[v] = ce.energy_J;
+      if (!friction_.empty() && friction_[v].mu_lambda_N > 0) {
+        Eigen::Vector3d gf;
+        Eigen::Matrix3d Hf;
+        friction_energy[v] = EvaluateFriction(friction_[v], x.row(v).transpose(), model_.friction_slip_m, want_grad ? &gf : nullptr,
+                                              want_hess ? &Hf : nullptr);
+        if (want_grad) g += gf;
+        if (want_hess) H += Hf;
+      }
       if (want_grad) gradient->segment<3>(3 * v) += g;
       if (want_hess) {
         const int* map = &vertex_map_[9 * v];
@@ -360,6 +376,7 @@ double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Ei
   for (double fe : face_energy_) e.membrane_J += fe;
   for (double ae : attach_energy) e.attachment_J += ae;
   for (double be : fold_energy) e.fold_barrier_J += be;
+  for (double fe : friction_energy) e.friction_J += fe;
   if (fx.contact != ContactModel::kNone)
     for (double ve : vertex_energy_) e.contact_J += ve;
   if (breakdown) *breakdown = e;
@@ -396,6 +413,21 @@ Eigen::Vector3d GarmentSystem::ClampReaction(int clamp, const Eigen::VectorXd& g
   Eigen::Vector3d r = Eigen::Vector3d::Zero();
   for (int v : model_.clamps[clamp].vertices) r += gradient.segment<3>(3 * v);
   return r;
+}
+
+void GarmentSystem::LagFriction(const Positions& x) {
+  if (!(model_.effects.friction > 0) || model_.effects.contact == ContactModel::kNone) return;
+  const int nv = num_vertices();
+  const Positions& anchor = model_.friction_anchor;
+  std::vector<FrictionVertex> lagged(nv);
+  for (int v = 0; v < nv; ++v) {
+    Eigen::Vector3d g;
+    EvaluateContactVertex(*model_.body, x.row(v).transpose(), &caches_[v], model_.effects.contact, model_.contact_stiffness_N_per_m, &g,
+                          nullptr, false);
+    // The penalty's force is along the field gradient, the body's normal there.
+    lagged[v] = ::kgd::LagFriction(anchor.row(v).transpose(), g, g.norm(), model_.effects.friction);
+  }
+  friction_ = std::move(lagged);
 }
 
 }  // namespace kgd

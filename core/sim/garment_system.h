@@ -20,6 +20,7 @@
 #include "core/sim/attachment.h"
 #include "core/sim/contact.h"
 #include "core/sim/fold_barrier.h"
+#include "core/sim/friction.h"
 #include "core/sim/membrane.h"
 #include "core/util/status.h"
 
@@ -40,6 +41,9 @@ struct Effects {
   // Refuse folds of the garment (see fold_barrier.h): an extension of the paper's model.
   bool fold_barrier = true;
   ContactModel contact = ContactModel::kNone;
+  // Coulomb coefficient of garment-skin friction (see friction.h); 0: frictionless, as in the paper.
+  // Needs contact.
+  double friction = 0;
   bool attachments = false;
   bool clamps = false;
 };
@@ -62,6 +66,9 @@ struct GarmentModel {
   // Orientation the fold barrier measures folds against (the garment on the body); empty: the
   // positions the system is constructed with.
   Positions fold_reference;
+  // Friction: where each vertex was put on the body (anchors); empty: the construction positions.
+  Positions friction_anchor;
+  double friction_slip_m = kDefaultFrictionSlip;
 };
 
 // Checks sizes, indices, materials and that the effects have what they need. Names the offending item.
@@ -72,7 +79,8 @@ struct EnergyBreakdown {
   double contact_J = 0;
   double attachment_J = 0;
   double fold_barrier_J = 0;
-  double total_J() const { return membrane_J + contact_J + attachment_J + fold_barrier_J; }
+  double friction_J = 0;
+  double total_J() const { return membrane_J + contact_J + attachment_J + fold_barrier_J + friction_J; }
 };
 
 class GarmentSystem {
@@ -116,6 +124,10 @@ class GarmentSystem {
   // Per-face energy density W (Pa) and regime at x.
   void FaceDensities(const Positions& x, Eigen::VectorXd* density_Pa, std::vector<MembraneRegime>* regime) const;
 
+  // With friction: takes the normal forces and tangent planes of the contact at x as the lagged data of
+  // the friction term (held until the next call). Before any call the friction term is zero.
+  void LagFriction(const Positions& x);
+
   // Phi at each vertex (m); NaN where the field has no support. Requires contact.
   Eigen::VectorXd VertexPhi(const Positions& x);
 
@@ -144,6 +156,7 @@ class GarmentSystem {
   std::vector<int> vertex_map_;           // 9 per vertex
   Eigen::SparseMatrix<double> pattern_;
   std::vector<NeighborCache> caches_;
+  std::vector<FrictionVertex> friction_;  // per vertex, lagged (empty: no friction yet)
   std::vector<double> face_energy_, vertex_energy_;
   double force_scale_ = 1, mean_edge_ = 0, stiffness_scale_ = 1;
 };

@@ -109,6 +109,61 @@ TEST(GarmentSystem, SparseAssemblyMatchesDenseAssembly) {
   EXPECT_EQ(sys.num_free_dofs(), n3 - 4);  // two vertices with x and z clamped
 }
 
+// Friction in the assembled system: its lagged data come from the contact forces at a state, its
+// gradient matches finite differences, and it adds to the energy only where the garment presses on the body.
+TEST(GarmentSystem, FrictionGradientMatchesFiniteDifferencesAndNeedsContactForce) {
+  SleeveOptions o;
+  o.around = 12;
+  o.sleeve_halflength_m = 0.05;
+  o.contact = ContactModel::kUnilateral;
+  SceneSpec s = SleeveOnLimbScene(o);
+  s.effects.friction = 0.4;
+  auto model = BuildGarmentModel(s);
+  ASSERT_TRUE(model.ok()) << model.message();
+  GarmentSystem sys(std::move(model).value(), s.initial);
+  // Lag at a state pressed into the body, then evaluate at a displaced one.
+  // Outward normals of the garment on the body (oriented by the field).
+  Positions out = AreaWeightedVertexNormals(s.initial, s.garment.faces);
+  auto inside = [&](const Positions& p) { return (sys.VertexPhi(p).array() < 0).count(); };
+  if (inside(s.initial + 2e-3 * out) > inside(s.initial - 2e-3 * out)) out = -out;
+  ASSERT_GT(inside(s.initial - 1e-3 * out), s.initial.rows() / 2);
+  const Positions pressed = s.initial - 1e-3 * out;
+  Positions x = s.initial;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n(0, 1e-3);
+  for (Eigen::Index v = 0; v < x.rows(); ++v)
+    for (int k = 0; k < 3; ++k) x(v, k) += n(rng);
+  EnergyBreakdown before;
+  sys.Evaluate(x, nullptr, nullptr, &before);
+  EXPECT_EQ(before.friction_J, 0.0) << "no friction before its data are lagged";
+  sys.LagFriction(pressed);
+  Eigen::VectorXd g;
+  EnergyBreakdown e;
+  sys.Evaluate(x, &g, nullptr, &e);
+  EXPECT_GT(e.friction_J, 0);
+  const double h = 1e-8;
+  double max_err = 0, max_g = 0;
+  for (int d = 0; d < 3 * sys.num_vertices(); d += 5) {
+    Positions xp = x, xm = x;
+    xp(d / 3, d % 3) += h;
+    xm(d / 3, d % 3) -= h;
+    const double fd = (sys.Evaluate(xp, nullptr, nullptr) - sys.Evaluate(xm, nullptr, nullptr)) / (2 * h);
+    max_err = std::max(max_err, std::abs(fd - g[d]));
+    max_g = std::max(max_g, std::abs(g[d]));
+  }
+  EXPECT_LT(max_err, 1e-5 * max_g);
+  // Lagged where the garment is off the body: no normal force, no friction.
+  sys.LagFriction(s.initial.rowwise() + Eigen::RowVector3d(1.0, 0, 0));
+  sys.Evaluate(x, nullptr, nullptr, &e);
+  EXPECT_EQ(e.friction_J, 0.0);
+  // Friction without contact is refused.
+  SceneSpec bad = s;
+  bad.effects.contact = ContactModel::kNone;
+  const Result<GarmentModel> refused = BuildGarmentModel(bad);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.message().find("effects.friction needs contact"), std::string::npos) << refused.message();
+}
+
 TEST(GarmentSystem, WithoutContactNoBodyFieldIsBuilt) {
   const long before = BodyField::BuildCount();
   auto pull = PullTestScene("line");

@@ -261,4 +261,27 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   }
 }
 
+SolveReport SolveLagged(Simulator& sim, GarmentSystem& system, Positions* x, const SolverSettings& settings, int lag_updates) {
+  const Effects& fx = system.model().effects;
+  if (!(fx.friction > 0) || fx.contact == ContactModel::kNone) return sim.Solve(x, settings);
+  SolveReport total;
+  for (int pass = 0; pass <= lag_updates; ++pass) {
+    system.LagFriction(*x);
+    SolveReport r = sim.Solve(x, settings);
+    r.iterations += total.iterations;
+    r.seconds += total.seconds;
+    r.assembly_s += total.assembly_s;
+    r.factorization_s += total.factorization_s;
+    r.solve_s += total.solve_s;
+    r.line_search_s += total.line_search_s;
+    r.factorizations += total.factorizations;
+    r.pcg_solves += total.pcg_solves;
+    r.pcg_iterations += total.pcg_iterations;
+    r.energy_evaluations += total.energy_evaluations;
+    total = r;
+    if (!r.converged()) break;
+  }
+  return total;
+}
+
 }  // namespace kgd

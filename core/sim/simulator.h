@@ -95,4 +95,9 @@ class Simulator {
   std::unique_ptr<Newton> newton_;
 };
 
+// A solve with friction's lagged data (friction.h) brought up to date: takes them at *x and solves,
+// then `lag_updates` more times takes them at the equilibrium and re-solves (IPC's lagged iterations).
+// Without friction, one Solve. Iterations, times and counters add up over the solves.
+SolveReport SolveLagged(Simulator& sim, GarmentSystem& system, Positions* x, const SolverSettings& settings, int lag_updates = 1);
+
 }  // namespace kgd

@@ -1,0 +1,450 @@
+#include "client/design_command.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "client/simulate_command.h"
+#include "core/beso/baselines.h"
+#include "core/beso/design_loop.h"
+#include "core/mesh/mesh_io.h"
+#include "core/scene/simulate.h"
+#include "store/design_file.h"
+
+namespace kgd::cli {
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+extern "C" void OnInterrupt(int) { g_interrupted = true; }
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr int kUnset = std::numeric_limits<int>::min();
+bool Given(double v) { return !std::isnan(v); }
+bool Given(int v) { return v != kUnset; }
+
+struct DesignOptions {
+  std::string scene;
+  std::vector<std::string> body;
+  std::string out;
+  std::string resume;
+  // Unset: NaN / kUnset (any value given, even a bad one, is used and then validated).
+  double budget = kNaN, er = kNaN, ar = kNaN, penalty = kNaN, d_min = kNaN, tau = kNaN;
+  int iterations = kUnset, window = kUnset, max_newton = kUnset;
+  double grad_tol = kNaN;
+  bool keep_attachments = false, no_averaging = false, average_with_raw = false, json = false, verbose = false;
+};
+
+std::vector<std::string> SplitWords(const std::string& s) {
+  std::istringstream in(s);
+  std::vector<std::string> out;
+  for (std::string w; in >> w;) out.push_back(w);
+  return out;
+}
+
+std::string JoinWords(const std::vector<std::string>& words) {
+  std::string s;
+  for (const std::string& w : words) s += (s.empty() ? "" : " ") + w;
+  return s;
+}
+
+// The scene a design file was made from, rebuilt and checked against the garment the file stores.
+Result<SceneSpec> SceneOfDesignFile(const std::string& path, const DesignFileHeader& h) {
+  Result<SceneSpec> scene = ResolveScene(h.scene, SplitWords(h.body));
+  if (!scene.ok()) return Status::Error(path + ": the job's scene '" + h.scene + "' cannot be rebuilt: " + scene.message());
+  if (scene->garment.faces.rows() != h.garment.faces.rows() || scene->garment.vertices.rows() != h.garment.vertices.rows() ||
+      !(scene->garment.faces == h.garment.faces) || !(scene->garment.vertices == h.garment.vertices) || !(scene->initial == h.initial))
+    return Status::Error(path + ": the scene '" + h.scene + "' no longer gives the garment stored in the file (" +
+                         std::to_string(scene->garment.vertices.rows()) + " vertices now, " +
+                         std::to_string(h.garment.vertices.rows()) + " stored); was the scene file or kgd changed?");
+  return scene;
+}
+
+std::string Duration(double s) {
+  char buf[32];
+  if (s < 60) std::snprintf(buf, sizeof buf, "%.0fs", s);
+  else if (s < 3600) std::snprintf(buf, sizeof buf, "%dm%02ds", static_cast<int>(s) / 60, static_cast<int>(s) % 60);
+  else std::snprintf(buf, sizeof buf, "%dh%02dm", static_cast<int>(s) / 3600, static_cast<int>(s) % 3600 / 60);
+  return buf;
+}
+
+nlohmann::ordered_json IterationJson(const BesoIteration& it) {
+  nlohmann::ordered_json j;
+  j["iteration"] = it.iteration;
+  j["area_fraction"] = it.area_fraction;
+  j["target_area_m2"] = it.target_area_m2;
+  j["energy_J"] = it.energy_J;
+  j["reinforced_energy_J"] = it.reinforced_energy_J;
+  j["reinforced_density_J_per_m2"] = it.reinforced_density_J_per_m2;
+  j["density_ratio"] = it.density_ratio;
+  j["status"] = ToString(it.status);
+  j["solver_iterations"] = it.solver_iterations;
+  j["cold_restart"] = it.cold_restart;
+  j["simulation_s"] = it.simulation_s;
+  j["sensitivity_s"] = it.sensitivity_s;
+  j["filter_s"] = it.filter_s;
+  j["update_s"] = it.update_s;
+  j["total_s"] = it.total_s;
+  return j;
+}
+
+int Fail(const char* command, const std::string& message, int code = 2) {
+  std::cerr << "kgd " << command << ": " << message << "\n";
+  return code;
+}
+
+int RunDesign(const DesignOptions& o) {
+  const bool resume = !o.resume.empty();
+  if (resume && (Given(o.budget) || Given(o.er) || Given(o.ar) || Given(o.penalty) || Given(o.d_min) || Given(o.tau) || Given(o.window) ||
+                 o.keep_attachments || o.no_averaging || o.average_with_raw || !o.body.empty() || !o.out.empty()))
+    return Fail("design", "--resume continues the stored job with its own settings; only --iterations may be given with it");
+  if (!resume && o.scene.empty()) return Fail("design", "give a scene (a built-in name or a scene file), or --resume FILE");
+  if (resume && !o.scene.empty()) return Fail("design", "give either a scene or --resume FILE, not both");
+
+  DesignFileHeader header;
+  SceneSpec scene;
+  std::vector<BesoIteration> stored;
+  std::unique_ptr<DesignFileWriter> writer;
+  std::string path;
+  if (resume) {
+    path = o.resume;
+    Result<DesignFile> metrics = ReadDesignFile(path, {.arrays = false});
+    if (!metrics.ok()) return Fail("design", metrics.message());
+    const int n = static_cast<int>(metrics->iterations.size());
+    Result<DesignFile> file = ReadDesignFile(path, {.arrays = true, .only_iteration = n - 1});
+    if (!file.ok()) return Fail("design", file.message());
+    header = file->header;
+    stored = std::move(file->iterations);
+    if (Given(o.iterations)) header.settings.max_iterations = o.iterations;
+    if (Status st = ValidateBesoSettings(header.settings); !st.ok()) return Fail("design", st.message());
+    Result<SceneSpec> s = SceneOfDesignFile(path, header);
+    if (!s.ok()) return Fail("design", s.message());
+    scene = std::move(s).value();
+    Result<std::unique_ptr<DesignFileWriter>> w = DesignFileWriter::Reopen(path, n);
+    if (!w.ok()) return Fail("design", w.message());
+    writer = std::move(w).value();
+  } else {
+    Result<SceneSpec> s = ResolveScene(o.scene, o.body);
+    if (!s.ok()) return Fail("design", s.message());
+    scene = std::move(s).value();
+    BesoSettings& st = header.settings;
+    st.budget = Given(o.budget) ? o.budget : (scene.budget < 1 ? scene.budget : st.budget);
+    if (Given(o.er)) st.evolutionary_ratio = o.er;
+    if (Given(o.ar)) st.admission_ratio = o.ar;
+    if (Given(o.penalty)) st.penalty = o.penalty;
+    if (Given(o.d_min)) st.d_min = o.d_min;
+    if (Given(o.tau)) st.tau = o.tau;
+    if (Given(o.window)) st.converge_window = o.window;
+    if (Given(o.iterations)) st.max_iterations = o.iterations;
+    st.keep_attachments = o.keep_attachments;
+    st.temporal_averaging = !o.no_averaging;
+    st.average_with_raw = o.average_with_raw;
+    if (Status v = ValidateBesoSettings(st); !v.ok()) return Fail("design", v.message());
+    header.scene = std::filesystem::exists(o.scene) ? std::filesystem::absolute(o.scene).string() : o.scene;
+    header.body = JoinWords(o.body);
+    header.garment = scene.garment;
+    header.initial = scene.initial;
+    header.rest_area_m2 = FaceAreas(scene.garment.vertices, scene.garment.faces);
+    header.attachment_faces = scene.attachment_faces;
+    path = o.out.empty() ? scene.name + ".h5" : o.out;
+    Result<std::unique_ptr<DesignFileWriter>> w = DesignFileWriter::Create(path, header);
+    if (!w.ok()) return Fail("design", w.message());
+    writer = std::move(w).value();
+  }
+  if (Given(o.max_newton)) scene.solver.max_iterations = o.max_newton;
+  if (Given(o.grad_tol)) scene.solver.grad_tol = o.grad_tol;
+  if (o.verbose)
+    scene.solver.on_iteration = [](const IterationInfo& i) {
+      std::fprintf(stderr, "  newton %4d  E %.12g J  |g| %.3e N  alpha %.3g  delta %.3g%s\n", i.iteration, i.energy_J, i.grad_norm_N,
+                   i.step_length, i.regularization, i.used_pcg ? "  (pcg)" : "");
+    };
+  const BesoSettings& settings = header.settings;
+  const double garment_area = header.rest_area_m2.sum(), final_area = settings.budget * garment_area;
+  const bool bar = !o.json && isatty(STDOUT_FILENO);
+  g_interrupted = false;
+  std::signal(SIGINT, OnInterrupt);
+  std::signal(SIGTERM, OnInterrupt);
+
+  if (!bar && !o.json) std::printf("design %s -> %s (budget %.3g)\n", scene.name.c_str(), path.c_str(), settings.budget);
+  Status write_status = Status::Ok();
+  std::vector<double> recent;  // seconds of the last iterations, for the ETA
+  double elapsed = 0;
+  const BesoIteration* last_seen = nullptr;
+  BesoIteration last_copy = stored.empty() ? BesoIteration{} : stored.back();
+  auto on_iteration = [&](const BesoIteration& it) {
+    write_status = writer->Append(it);
+    elapsed += it.total_s;
+    recent.push_back(it.total_s);
+    if (recent.size() > 8) recent.erase(recent.begin());
+    double mean = 0;
+    for (double t : recent) mean += t;
+    mean /= recent.size();
+    // Iterations left: to shrink the target to the budget at ER per iteration, then the stop window.
+    int left = settings.converge_window;
+    if (it.target_area_m2 > final_area * (1 + 1e-12))
+      left += static_cast<int>(std::ceil(std::log(final_area / it.target_area_m2) / std::log(1 - settings.evolutionary_ratio)));
+    left = std::min(left, settings.max_iterations - it.iteration);
+    if (bar) {
+      const double done = 1.0 - static_cast<double>(left) / (it.iteration + left);
+      const int width = 24, filled = static_cast<int>(done * width);
+      std::printf("\r[%s%s] it %3d  area %5.1f%%  ratio %.3f  %.2f s/it  ETA %-7s", std::string(filled, '#').c_str(),
+                  std::string(width - filled, '.').c_str(), it.iteration, 100 * it.area_fraction, it.density_ratio, mean,
+                  Duration(left * mean).c_str());
+    } else {
+      nlohmann::ordered_json j = IterationJson(it);
+      j["eta_s"] = left * mean;
+      std::printf("%s\n", j.dump().c_str());
+    }
+    std::fflush(stdout);
+    last_copy = it;
+    last_seen = &last_copy;
+    return write_status.ok() && !g_interrupted;
+  };
+  const Result<std::vector<BesoIteration>> run = RunBeso(scene, settings, on_iteration, stored.empty() ? nullptr : &stored);
+  std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
+  if (bar) std::printf("\n");
+  if (!write_status.ok()) return Fail("design", write_status.message());
+  if (!run.ok()) return Fail("design", run.message() + " (iterations so far are in " + path + ")", 3);
+  const BesoIteration& end = last_seen ? *last_seen : last_copy;
+  if (g_interrupted) {
+    std::fprintf(stderr, "kgd design: stopped after iteration %d; continue with: kgd design --resume %s\n", end.iteration, path.c_str());
+    return 130;
+  }
+  if (o.json || !bar) {
+    nlohmann::ordered_json j{{"event", "done"}, {"file", path}, {"iterations", end.iteration + 1}, {"area_fraction", end.area_fraction},
+                             {"density_ratio", end.density_ratio}, {"seconds", elapsed}};
+    std::printf("%s\n", j.dump().c_str());
+  } else {
+    std::printf("done: %d iterations, area %.1f%%, reinforced energy density %.4g J/m^2 = %.3f x fully reinforced, %s; wrote %s\n",
+                end.iteration + 1, 100 * end.area_fraction, end.reinforced_density_J_per_m2, end.density_ratio,
+                Duration(elapsed).c_str(), path.c_str());
+  }
+  return 0;
+}
+
+int RunDesigns(const std::string& path, bool json) {
+  Result<DesignFile> f = ReadDesignFile(path, {.arrays = false});
+  if (!f.ok()) return Fail("designs", f.message());
+  const DesignFileHeader& h = f->header;
+  if (json) {
+    nlohmann::ordered_json j;
+    j["scene"] = h.scene;
+    j["body"] = h.body;
+    j["settings"] = nlohmann::json::parse(BesoSettingsToJson(h.settings));
+    j["garment_vertices"] = h.garment.vertices.rows();
+    j["garment_faces"] = h.garment.faces.rows();
+    j["garment_area_m2"] = h.rest_area_m2.sum();
+    j["iterations"] = nlohmann::json::array();
+    for (const BesoIteration& it : f->iterations) j["iterations"].push_back(IterationJson(it));
+    std::printf("%s\n", j.dump().c_str());
+    return 0;
+  }
+  std::printf("scene %s%s%s: %ld vertices, %ld faces, %.4g m^2; budget %.3g, ER %.3g, AR_max %.3g, p %.3g%s\n", h.scene.c_str(),
+              h.body.empty() ? "" : " ", h.body.c_str(), static_cast<long>(h.garment.vertices.rows()),
+              static_cast<long>(h.garment.faces.rows()), h.rest_area_m2.sum(), h.settings.budget, h.settings.evolutionary_ratio,
+              h.settings.admission_ratio, h.settings.penalty, h.settings.keep_attachments ? ", attachments kept" : "");
+  std::printf("%5s %8s %8s %12s %12s %12s %7s %6s %8s %8s\n", "iter", "area_%", "target_%", "energy_J", "reinf_J", "density_J/m2",
+              "ratio", "newton", "sim_s", "total_s");
+  double total = 0;
+  for (const BesoIteration& it : f->iterations) {
+    std::printf("%5d %8.2f %8.2f %12.6g %12.6g %12.6g %7.3f %6d %8.3f %8.3f\n", it.iteration, 100 * it.area_fraction,
+                100 * it.target_area_m2 / h.rest_area_m2.sum(), it.energy_J, it.reinforced_energy_J, it.reinforced_density_J_per_m2,
+                it.density_ratio, it.solver_iterations, it.simulation_s, it.total_s);
+    total += it.total_s;
+  }
+  const bool finished = BesoFinished(f->iterations, h.settings, h.rest_area_m2.sum());
+  std::printf("%zu iterations, %s%s\n", f->iterations.size(), Duration(total).c_str(),
+              finished ? "; finished" : "; not finished (kgd design --resume FILE continues it)");
+  return 0;
+}
+
+// The design of iteration `k` (-1: the last) with the file's scene.
+struct StoredDesign {
+  DesignFile file;
+  SceneSpec scene;
+  int iteration = 0;
+};
+Result<StoredDesign> LoadStoredDesign(const std::string& path, int k) {
+  Result<DesignFile> metrics = ReadDesignFile(path, {.arrays = false});
+  if (!metrics.ok()) return metrics.status();
+  const int n = static_cast<int>(metrics->iterations.size());
+  if (n == 0) return Status::Error(path + ": no iterations stored yet");
+  if (k < 0) k = n - 1;
+  if (k >= n) return Status::Error(path + ": iteration " + std::to_string(k) + " is not stored (0.." + std::to_string(n - 1) + ")");
+  Result<DesignFile> f = ReadDesignFile(path, {.arrays = true, .only_iteration = k});
+  if (!f.ok()) return f.status();
+  Result<SceneSpec> scene = SceneOfDesignFile(path, f->header);
+  if (!scene.ok()) return scene.status();
+  return StoredDesign{std::move(f).value(), std::move(scene).value(), k};
+}
+
+int RunEvaluate(const std::string& path, int k, bool json) {
+  Result<StoredDesign> sd = LoadStoredDesign(path, k);
+  if (!sd.ok()) return Fail("evaluate", sd.message());
+  SceneSpec designed = sd->scene, full = sd->scene;
+  designed.design = sd->file.iterations[sd->iteration].design;
+  full.design.assign(full.design.size(), kReinforced);
+  const bool frames = designed.motion && !designed.motion->frames.empty();
+  std::vector<SimulationResult> a, b;
+  for (auto [spec, out] : {std::pair{&designed, &a}, std::pair{&full, &b}}) {
+    if (frames) {
+      Result<std::vector<SimulationResult>> r = SimulateFrames(*spec);
+      if (!r.ok()) return Fail("evaluate", r.message());
+      *out = std::move(r).value();
+    } else {
+      Result<SimulationResult> r = SimulateScene(*spec);
+      if (!r.ok()) return Fail("evaluate", r.message());
+      out->push_back(std::move(r).value());
+    }
+  }
+  bool converged = true;
+  nlohmann::ordered_json j;
+  j["file"] = path;
+  j["iteration"] = sd->iteration;
+  j["frames"] = nlohmann::json::array();
+  if (!json)
+    std::printf("design of iteration %d (%.1f%% reinforced) over %zu frame%s\n%6s %12s %12s %14s %14s %7s\n", sd->iteration,
+                100 * sd->file.iterations[sd->iteration].area_fraction, a.size(), a.size() == 1 ? "" : "s", "frame", "energy_J",
+                "reinf_J", "density_J/m2", "full_J/m2", "ratio");
+  for (size_t f = 0; f < a.size(); ++f) {
+    converged &= a[f].solve.converged() && b[f].solve.converged();
+    const double ratio = b[f].reinforced_density_J_per_m2 > 0 ? a[f].reinforced_density_J_per_m2 / b[f].reinforced_density_J_per_m2 : 0;
+    if (json) {
+      j["frames"].push_back({{"frame", f + 1},
+                             {"status", ToString(a[f].solve.status)},
+                             {"energy_J", a[f].solve.energy_J},
+                             {"reinforced_energy_J", a[f].reinforced_energy_J},
+                             {"reinforced_density_J_per_m2", a[f].reinforced_density_J_per_m2},
+                             {"full_reinforced_density_J_per_m2", b[f].reinforced_density_J_per_m2},
+                             {"density_ratio", ratio}});
+    } else {
+      std::printf("%6zu %12.6g %12.6g %14.6g %14.6g %7.3f%s\n", f + 1, a[f].solve.energy_J, a[f].reinforced_energy_J,
+                  a[f].reinforced_density_J_per_m2, b[f].reinforced_density_J_per_m2, ratio, a[f].solve.converged() ? "" : "  (not converged)");
+    }
+  }
+  if (json) std::printf("%s\n", j.dump().c_str());
+  return converged ? 0 : 3;
+}
+
+int RunBaselines(const std::string& path, int k, double angle_deg, bool angle_given, const std::string& out, bool json) {
+  Result<StoredDesign> sd = LoadStoredDesign(path, k);
+  if (!sd.ok()) return Fail("baselines", sd.message());
+  const DesignFileHeader& h = sd->file.header;
+  Result<DesignFile> first = ReadDesignFile(path, {.arrays = true, .only_iteration = 0});
+  if (!first.ok()) return Fail("baselines", first.message());
+  const Result<BaselineComparison> cmp =
+      CompareWithBaselines(sd->scene, sd->file.iterations[sd->iteration].design,
+                           first->iterations[0].energy_density_Pa.cwiseProduct(h.rest_area_m2),
+                           angle_given ? std::optional<double>(angle_deg * M_PI / 180) : std::nullopt);
+  if (!cmp.ok()) return Fail("baselines", path + ": " + cmp.message());
+  struct Row {
+    const char* name;
+    const std::vector<uint8_t>* design;
+    const SimulationResult* result;
+  };
+  const std::vector<Row> rows = {{"optimized", &sd->file.iterations[sd->iteration].design, &cmp->optimized_result},
+                                 {"line", &cmp->line, &cmp->line_result},
+                                 {"x", &cmp->x, &cmp->x_result}};
+  const double garment_area = h.rest_area_m2.sum();
+  nlohmann::ordered_json j;
+  j["file"] = path;
+  j["iteration"] = sd->iteration;
+  j["theta0_deg"] = cmp->theta0_rad * 180 / M_PI;
+  if (!json)
+    std::printf("iteration %d: reinforced area %.4g m^2 (%.1f%%); bands centred at %.1f deg\n%-10s %8s %14s %14s %13s\n", sd->iteration,
+                cmp->area_m2, 100 * cmp->area_m2 / garment_area, cmp->theta0_rad * 180 / M_PI, "design", "area_%", "reinforced_J",
+                "density_J/m2", "vs_optimized");
+  bool converged = true;
+  const double best = cmp->optimized_result.reinforced_energy_J;
+  for (const Row& r : rows) {
+    const SimulationResult& s = *r.result;
+    converged &= s.solve.converged();
+    if (json) {
+      j[r.name] = {{"area_fraction", s.reinforced_area_m2 / garment_area},
+                   {"status", ToString(s.solve.status)},
+                   {"energy_J", s.solve.energy_J},
+                   {"reinforced_energy_J", s.reinforced_energy_J},
+                   {"reinforced_density_J_per_m2", s.reinforced_density_J_per_m2}};
+    } else {
+      std::printf("%-10s %8.2f %14.6g %14.6g %13.3f%s\n", r.name, 100 * s.reinforced_area_m2 / garment_area, s.reinforced_energy_J,
+                  s.reinforced_density_J_per_m2, best > 0 ? s.reinforced_energy_J / best : 0.0, s.solve.converged() ? "" : "  (not converged)");
+    }
+    if (!out.empty()) {
+      Eigen::VectorXd d(r.design->size());
+      for (size_t f = 0; f < r.design->size(); ++f) d[f] = (*r.design)[f];
+      const std::filesystem::path p(out);
+      const std::string file = (p.parent_path() / (p.stem().string() + "_" + r.name + ".ply")).string();
+      if (Status st = WritePly(file, s.positions, h.garment.faces, {{"design", d, true}, {"energy_density_Pa", s.face_density_Pa, false}});
+          !st.ok())
+        return Fail("baselines", st.message());
+    }
+  }
+  if (json) std::printf("%s\n", j.dump().c_str());
+  return converged ? 0 : 3;
+}
+
+}  // namespace
+
+void AddDesignCommands(CLI::App& app, int* exit_code) {
+  auto o = std::make_shared<DesignOptions>();
+  CLI::App* d = app.add_subcommand("design", "Optimize where to reinforce a garment (BESO), locally; writes the history to HDF5");
+  d->add_option("scene", o->scene, "Scene file (JSON) or the name of a built-in scene (see `kgd scenes`)");
+  d->add_option("--body", o->body, "A measurement of the parametric body, name=value in SI (repeatable)");
+  d->add_option("--out", o->out, "Design file to write (default: SCENE.h5 in the current folder)");
+  d->add_option("--resume", o->resume, "Continue the job stored in this design file after its last iteration");
+  d->add_option("--budget", o->budget, "Reinforced area at the end, as a fraction of the garment area, in (0, 1] (default: the scene's)");
+  d->add_option("--iterations", o->iterations, "Stop after this BESO iteration at the latest (default 400)");
+  d->add_option("--er", o->er, "Evolutionary ratio ER: the target area shrinks by this fraction per iteration (default 0.015)");
+  d->add_option("--ar-max", o->ar, "Admission limit AR_max: at most this fraction of the garment turns reinforced per iteration (default 0.015)");
+  d->add_option("--penalty", o->penalty, "Interpolation exponent p, >= 1 (default 1.6)");
+  d->add_option("--d-min", o->d_min, "Design value of the soft material in the sensitivity formula (default 0.001)");
+  d->add_option("--tau", o->tau, "Stop when the objective changes by less than tau (relative) ... (default 1e-3)");
+  d->add_option("--window", o->window, "... over this many iterations, with the budget reached (default 5)");
+  d->add_flag("--keep-attachments", o->keep_attachments, "Attachment triangles stay reinforced");
+  d->add_flag("--no-averaging", o->no_averaging, "No temporal averaging of the sensitivities");
+  d->add_flag("--average-with-raw", o->average_with_raw,
+              "Average with the previous iteration's filtered, not averaged, sensitivities (the authors' code)");
+  d->add_option("--max-newton", o->max_newton, "Solver iteration limit per BESO iteration (default 200)")->check(CLI::PositiveNumber);
+  d->add_option("--grad-tol", o->grad_tol, "Solver gradient tolerance, dimensionless (default 1e-4, see docs/MODEL.md)")->check(CLI::PositiveNumber);
+  d->add_flag("-v,--verbose", o->verbose, "Print every solver iteration to stderr");
+  d->add_flag("--json", o->json, "Print one JSON line per iteration (the default when stdout is not a terminal)");
+  d->callback([o, exit_code] { *exit_code = RunDesign(*o); });
+
+  auto file = std::make_shared<std::string>();
+  auto json = std::make_shared<bool>(false);
+  auto iteration = std::make_shared<int>(-1);
+  auto angle = std::make_shared<double>(0.0);
+  auto out = std::make_shared<std::string>();
+  CLI::App* ds = app.add_subcommand("designs", "Print the history stored in a design file");
+  ds->add_option("file", *file, "Design file (HDF5) written by kgd design")->required();
+  ds->add_flag("--json", *json, "Print as one JSON object");
+  ds->callback([file, json, exit_code] { *exit_code = RunDesigns(*file, *json); });
+
+  CLI::App* ev = app.add_subcommand("evaluate", "Simulate a stored design over every frame of the scene's motion, beside the fully reinforced garment");
+  ev->add_option("file", *file, "Design file (HDF5)")->required();
+  ev->add_option("--iteration", *iteration, "Which iteration's design (default: the last)");
+  ev->add_flag("--json", *json, "Print as one JSON object");
+  ev->callback([file, iteration, json, exit_code] { *exit_code = RunEvaluate(*file, *iteration, *json); });
+
+  CLI::App* bl = app.add_subcommand("baselines", "Simulate a Line and an X of the same reinforced area as a stored design, and compare");
+  bl->add_option("file", *file, "Design file (HDF5)")->required();
+  bl->add_option("--iteration", *iteration, "Which iteration's design (default: the last)");
+  CLI::Option* angle_opt =
+      bl->add_option("--angle", *angle, "Centre the bands at this angle (degrees) around the garment (default: where the fully reinforced garment stores its energy)");
+  bl->add_option("--out", *out, "Write the three equilibria as PLY: OUT_optimized.ply, OUT_line.ply, OUT_x.ply");
+  bl->add_flag("--json", *json, "Print as one JSON object");
+  bl->callback([file, iteration, angle, angle_opt, out, json, exit_code] {
+    *exit_code = RunBaselines(*file, *iteration, *angle, angle_opt->count() > 0, *out, *json);
+  });
+}
+
+}  // namespace kgd::cli

@@ -1,0 +1,498 @@
+#include "store/design_file.h"
+
+#include <hdf5.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+namespace kgd {
+namespace {
+
+constexpr const char* kFormat = "kgd design history";
+constexpr int kFormatVersion = 1;
+
+// Metric datasets: name, and whether they hold integers.
+struct MetricSpec {
+  const char* name;
+  bool integer;
+  double BesoIteration::*real;
+  int BesoIteration::*whole;
+};
+const std::vector<MetricSpec>& Metrics() {
+  static const std::vector<MetricSpec> m = {
+      {"target_area_m2", false, &BesoIteration::target_area_m2, nullptr},
+      {"area_fraction", false, &BesoIteration::area_fraction, nullptr},
+      {"energy_J", false, &BesoIteration::energy_J, nullptr},
+      {"reinforced_energy_J", false, &BesoIteration::reinforced_energy_J, nullptr},
+      {"reinforced_density_J_per_m2", false, &BesoIteration::reinforced_density_J_per_m2, nullptr},
+      {"density_ratio", false, &BesoIteration::density_ratio, nullptr},
+      {"solver_iterations", true, nullptr, &BesoIteration::solver_iterations},
+      {"cold_restart", true, nullptr, &BesoIteration::cold_restart},
+      {"simulation_s", false, &BesoIteration::simulation_s, nullptr},
+      {"sensitivity_s", false, &BesoIteration::sensitivity_s, nullptr},
+      {"filter_s", false, &BesoIteration::filter_s, nullptr},
+      {"update_s", false, &BesoIteration::update_s, nullptr},
+      {"total_s", false, &BesoIteration::total_s, nullptr},
+  };
+  return m;
+}
+
+// RAII for HDF5 identifiers.
+struct Id {
+  hid_t id = H5I_INVALID_HID;
+  herr_t (*close)(hid_t) = nullptr;
+  Id() = default;
+  Id(hid_t i, herr_t (*c)(hid_t)) : id(i), close(c) {}
+  Id(Id&& o) noexcept : id(o.id), close(o.close) { o.id = H5I_INVALID_HID; }
+  Id& operator=(Id&& o) noexcept {
+    if (this != &o) {
+      reset();
+      id = o.id;
+      close = o.close;
+      o.id = H5I_INVALID_HID;
+    }
+    return *this;
+  }
+  ~Id() { reset(); }
+  void reset() {
+    if (id >= 0 && close) close(id);
+    id = H5I_INVALID_HID;
+  }
+  bool ok() const { return id >= 0; }
+  operator hid_t() const { return id; }
+};
+
+void SilenceHdf5() {
+  static bool done = [] {
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    return true;
+  }();
+  (void)done;
+}
+
+Status Fail(const std::string& path, const std::string& what) { return Status::Error(path + ": " + what); }
+
+bool WriteStringAttribute(hid_t obj, const char* name, const std::string& value) {
+  Id type(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(type, value.empty() ? 1 : value.size());
+  H5Tset_strpad(type, H5T_STR_NULLPAD);
+  H5Tset_cset(type, H5T_CSET_UTF8);
+  Id space(H5Screate(H5S_SCALAR), H5Sclose);
+  Id attr(H5Acreate2(obj, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  if (!attr.ok()) return false;
+  const std::string padded = value.empty() ? std::string(1, '\0') : value;
+  return H5Awrite(attr, type, padded.data()) >= 0;
+}
+
+bool ReadStringAttribute(hid_t obj, const char* name, std::string* value) {
+  Id attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
+  if (!attr.ok()) return false;
+  Id type(H5Aget_type(attr), H5Tclose);
+  if (H5Tget_class(type) != H5T_STRING || H5Tis_variable_str(type) > 0) return false;
+  const size_t n = H5Tget_size(type);
+  std::string buf(n + 1, '\0');
+  // Read in the stored type (fixed length): no conversion between character sets or paddings.
+  if (H5Aread(attr, type, buf.data()) < 0) return false;
+  buf.resize(std::strlen(buf.c_str()));
+  *value = buf;
+  return true;
+}
+
+bool WriteIntAttribute(hid_t obj, const char* name, int value) {
+  Id space(H5Screate(H5S_SCALAR), H5Sclose);
+  Id attr(H5Acreate2(obj, name, H5T_STD_I32LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  return attr.ok() && H5Awrite(attr, H5T_NATIVE_INT, &value) >= 0;
+}
+
+bool ReadIntAttribute(hid_t obj, const char* name, int* value) {
+  Id attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
+  return attr.ok() && H5Aread(attr, H5T_NATIVE_INT, value) >= 0;
+}
+
+// A fixed-size dataset written at once (row-major data).
+bool WriteFixed(hid_t group, const char* name, hid_t file_type, hid_t mem_type, const std::vector<hsize_t>& dims, const void* data) {
+  Id space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
+  Id set(H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
+  if (!set.ok()) return false;
+  bool empty = false;
+  for (hsize_t d : dims) empty |= d == 0;
+  return empty || H5Dwrite(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0;
+}
+
+// The current extent of an open dataset.
+std::vector<hsize_t> Dims(hid_t set) {
+  Id space(H5Dget_space(set), H5Sclose);
+  const int rank = H5Sget_simple_extent_ndims(space);
+  std::vector<hsize_t> dims(rank > 0 ? rank : 0);
+  if (rank > 0) H5Sget_simple_extent_dims(space, dims.data(), nullptr);
+  return dims;
+}
+
+// The shape of a dataset, or empty if it does not exist.
+std::vector<hsize_t> Shape(hid_t group, const char* name) {
+  if (H5Lexists(group, name, H5P_DEFAULT) <= 0) return {};
+  Id set(H5Dopen2(group, name, H5P_DEFAULT), H5Dclose);
+  return set.ok() ? Dims(set) : std::vector<hsize_t>{};
+}
+
+bool ReadAll(hid_t group, const char* name, hid_t mem_type, void* data) {
+  Id set(H5Dopen2(group, name, H5P_DEFAULT), H5Dclose);
+  return set.ok() && H5Dread(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0;
+}
+
+// An extendible dataset of rows of shape `row` (chunk = one row, deflate).
+bool CreateGrowing(hid_t group, const char* name, hid_t file_type, const std::vector<hsize_t>& row) {
+  std::vector<hsize_t> dims{0}, max{H5S_UNLIMITED}, chunk{1};
+  for (hsize_t r : row) {
+    dims.push_back(r);
+    max.push_back(r);
+    chunk.push_back(std::max<hsize_t>(r, 1));
+  }
+  Id space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), max.data()), H5Sclose);
+  Id plist(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  H5Pset_chunk(plist, static_cast<int>(chunk.size()), chunk.data());
+  if (!row.empty()) {
+    H5Pset_shuffle(plist);
+    H5Pset_deflate(plist, 4);
+  }
+  Id set(H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, plist, H5P_DEFAULT), H5Dclose);
+  return set.ok();
+}
+
+// Selects row `index` of `file_space` and returns the matching memory space (one row).
+Id SelectRow(hid_t file_space, hsize_t index) {
+  const int rank = H5Sget_simple_extent_ndims(file_space);
+  std::vector<hsize_t> start(rank, 0), count(rank);
+  H5Sget_simple_extent_dims(file_space, count.data(), nullptr);
+  start[0] = index;
+  count[0] = 1;
+  H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr);
+  return Id(H5Screate_simple(rank, count.data(), nullptr), H5Sclose);
+}
+
+// Writes row `index` of a growing dataset (extending it to index + 1 rows).
+bool WriteRow(hid_t group, const char* name, hid_t mem_type, hsize_t index, const void* data) {
+  Id set(H5Dopen2(group, name, H5P_DEFAULT), H5Dclose);
+  if (!set.ok()) return false;
+  std::vector<hsize_t> dims = Dims(set);
+  dims[0] = index + 1;
+  if (H5Dset_extent(set, dims.data()) < 0) return false;
+  Id file_space(H5Dget_space(set), H5Sclose);
+  Id mem_space = SelectRow(file_space, index);
+  return H5Dwrite(set, mem_type, mem_space, file_space, H5P_DEFAULT, data) >= 0;
+}
+
+bool ReadRow(hid_t group, const char* name, hid_t mem_type, hsize_t index, void* data) {
+  Id set(H5Dopen2(group, name, H5P_DEFAULT), H5Dclose);
+  if (!set.ok()) return false;
+  if (index >= Dims(set)[0]) return false;
+  Id file_space(H5Dget_space(set), H5Sclose);
+  Id mem_space = SelectRow(file_space, index);
+  return H5Dread(set, mem_type, mem_space, file_space, H5P_DEFAULT, data) >= 0;
+}
+
+bool Truncate(hid_t group, const char* name, hsize_t rows) {
+  Id set(H5Dopen2(group, name, H5P_DEFAULT), H5Dclose);
+  if (!set.ok()) return false;
+  std::vector<hsize_t> dims = Dims(set);
+  if (dims[0] <= rows) return true;
+  dims[0] = rows;
+  return H5Dset_extent(set, dims.data()) >= 0;
+}
+
+// Row-major copies of Eigen's column-major matrices.
+std::vector<double> RowMajor(const Positions& p) {
+  std::vector<double> out(p.rows() * 3);
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    for (int k = 0; k < 3; ++k) out[3 * i + k] = p(i, k);
+  return out;
+}
+Positions FromRowMajor(const std::vector<double>& v) {
+  Positions p(v.size() / 3, 3);
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    for (int k = 0; k < 3; ++k) p(i, k) = v[3 * i + k];
+  return p;
+}
+
+const char* kArrayNames[] = {"design", "positions", "energy_density_Pa", "sensitivity"};
+
+}  // namespace
+
+const std::vector<std::string>& DesignFileMetricNames() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n{"iteration"};
+    for (const MetricSpec& m : Metrics()) n.push_back(m.name);
+    n.push_back("status");
+    return n;
+  }();
+  return names;
+}
+
+std::string BesoSettingsToJson(const BesoSettings& s) {
+  nlohmann::ordered_json j;
+  j["budget"] = s.budget;
+  j["evolutionary_ratio"] = s.evolutionary_ratio;
+  j["admission_ratio"] = s.admission_ratio;
+  j["d_min"] = s.d_min;
+  j["penalty"] = s.penalty;
+  j["temporal_averaging"] = s.temporal_averaging;
+  j["average_with_raw"] = s.average_with_raw;
+  j["keep_attachments"] = s.keep_attachments;
+  j["tau"] = s.tau;
+  j["converge_window"] = s.converge_window;
+  j["max_iterations"] = s.max_iterations;
+  return j.dump();
+}
+
+Result<BesoSettings> BesoSettingsFromJson(const std::string& text) {
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return Status::Error("BESO settings: not a JSON object");
+  BesoSettings s;
+  try {
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      const std::string& k = it.key();
+      if (k == "budget") s.budget = it->get<double>();
+      else if (k == "evolutionary_ratio") s.evolutionary_ratio = it->get<double>();
+      else if (k == "admission_ratio") s.admission_ratio = it->get<double>();
+      else if (k == "d_min") s.d_min = it->get<double>();
+      else if (k == "penalty") s.penalty = it->get<double>();
+      else if (k == "temporal_averaging") s.temporal_averaging = it->get<bool>();
+      else if (k == "keep_attachments") s.keep_attachments = it->get<bool>();
+      else if (k == "average_with_raw") s.average_with_raw = it->get<bool>();
+      else if (k == "tau") s.tau = it->get<double>();
+      else if (k == "converge_window") s.converge_window = it->get<int>();
+      else if (k == "max_iterations") s.max_iterations = it->get<int>();
+      else return Status::Error("BESO settings: unknown key \"" + k + "\"");
+    }
+  } catch (const nlohmann::json::exception& e) {
+    return Status::Error(std::string("BESO settings: ") + e.what());
+  }
+  if (Status st = ValidateBesoSettings(s); !st.ok()) return st;
+  return s;
+}
+
+struct DesignFileWriter::Impl {
+  std::string path;
+  Id file, iterations;
+  int faces = 0, vertices = 0;
+};
+
+DesignFileWriter::~DesignFileWriter() = default;
+
+Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::string& path, const DesignFileHeader& h) {
+  SilenceHdf5();
+  const hsize_t nv = h.garment.vertices.rows(), nf = h.garment.faces.rows();
+  if (h.initial.rows() != static_cast<Eigen::Index>(nv) || h.rest_area_m2.size() != static_cast<Eigen::Index>(nf))
+    return Fail(path, "design file header: garment, initial positions and areas differ in size");
+  auto w = std::unique_ptr<DesignFileWriter>(new DesignFileWriter);
+  w->impl_ = std::make_unique<Impl>();
+  Impl& m = *w->impl_;
+  m.path = path;
+  m.faces = static_cast<int>(nf);
+  m.vertices = static_cast<int>(nv);
+  m.file = Id(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+  if (!m.file.ok()) return Fail(path, "cannot create the HDF5 file (does the folder exist, is it writable?)");
+  bool ok = WriteStringAttribute(m.file, "format", kFormat) && WriteIntAttribute(m.file, "format_version", kFormatVersion);
+  {
+    Id job(H5Gcreate2(m.file, "job", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+    ok = ok && job.ok() && WriteStringAttribute(job, "scene", h.scene) && WriteStringAttribute(job, "body", h.body) &&
+         WriteStringAttribute(job, "settings", BesoSettingsToJson(h.settings)) &&
+         WriteStringAttribute(job, "kgd_version", KGD_VERSION);
+  }
+  {
+    Id g(H5Gcreate2(m.file, "garment", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+    std::vector<int> faces(nf * 3);
+    for (hsize_t f = 0; f < nf; ++f)
+      for (int k = 0; k < 3; ++k) faces[3 * f + k] = h.garment.faces(f, k);
+    const std::vector<double> rest = RowMajor(h.garment.vertices), initial = RowMajor(h.initial);
+    ok = ok && g.ok() && WriteFixed(g, "rest_vertices", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {nv, 3}, rest.data()) &&
+         WriteFixed(g, "faces", H5T_STD_I32LE, H5T_NATIVE_INT, {nf, 3}, faces.data()) &&
+         WriteFixed(g, "rest_area", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {nf}, h.rest_area_m2.data()) &&
+         WriteFixed(g, "initial_positions", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {nv, 3}, initial.data()) &&
+         WriteFixed(g, "attachment_faces", H5T_STD_I32LE, H5T_NATIVE_INT, {h.attachment_faces.size()},
+                    h.attachment_faces.data());
+  }
+  m.iterations = Id(H5Gcreate2(m.file, "iterations", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  ok = ok && m.iterations.ok() && CreateGrowing(m.iterations, "iteration", H5T_STD_I32LE, {}) &&
+       CreateGrowing(m.iterations, "status", H5T_STD_I32LE, {});
+  for (const MetricSpec& s : Metrics())
+    ok = ok && CreateGrowing(m.iterations, s.name, s.integer ? H5T_STD_I32LE : H5T_IEEE_F64LE, {});
+  ok = ok && CreateGrowing(m.iterations, "design", H5T_STD_U8LE, {nf}) &&
+       CreateGrowing(m.iterations, "positions", H5T_IEEE_F64LE, {nv, 3}) &&
+       CreateGrowing(m.iterations, "energy_density_Pa", H5T_IEEE_F64LE, {nf}) &&
+       CreateGrowing(m.iterations, "sensitivity", H5T_IEEE_F64LE, {nf});
+  if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot write the design file (disk full?)");
+  return w;
+}
+
+Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::string& path, int keep) {
+  SilenceHdf5();
+  Result<DesignFile> existing = ReadDesignFile(path, {.arrays = false});
+  if (!existing.ok()) return existing.status();
+  const int stored = static_cast<int>(existing->iterations.size());
+  if (keep < 0 || keep > stored)
+    return Fail(path, "cannot keep " + std::to_string(keep) + " iterations: the file has " + std::to_string(stored));
+  auto w = std::unique_ptr<DesignFileWriter>(new DesignFileWriter);
+  w->impl_ = std::make_unique<Impl>();
+  Impl& m = *w->impl_;
+  m.path = path;
+  m.faces = static_cast<int>(existing->header.garment.faces.rows());
+  m.vertices = static_cast<int>(existing->header.garment.vertices.rows());
+  m.file = Id(H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
+  if (!m.file.ok()) return Fail(path, "cannot open the design file for writing");
+  m.iterations = Id(H5Gopen2(m.file, "iterations", H5P_DEFAULT), H5Gclose);
+  // The commit marker first, so a crash in between leaves a file that reads as `keep` iterations.
+  bool ok = m.iterations.ok() && Truncate(m.iterations, "iteration", keep);
+  for (const std::string& name : DesignFileMetricNames()) ok = ok && Truncate(m.iterations, name.c_str(), keep);
+  for (const char* name : kArrayNames) ok = ok && Truncate(m.iterations, name, keep);
+  if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot truncate the design file");
+  w->count_ = keep;
+  return w;
+}
+
+Status DesignFileWriter::Append(const BesoIteration& it) {
+  Impl& m = *impl_;
+  if (it.iteration != count_)
+    return Fail(m.path, "iteration " + std::to_string(it.iteration) + " appended after " + std::to_string(count_) + " stored");
+  if (static_cast<int>(it.design.size()) != m.faces || it.positions.rows() != m.vertices || it.energy_density_Pa.size() != m.faces ||
+      (it.sensitivity.size() != 0 && it.sensitivity.size() != m.faces))
+    return Fail(m.path, "iteration " + std::to_string(it.iteration) + ": arrays do not match the garment");
+  const hsize_t row = count_;
+  bool ok = true;
+  for (const MetricSpec& s : Metrics()) {
+    if (s.integer) {
+      const int v = it.*(s.whole);
+      ok = ok && WriteRow(m.iterations, s.name, H5T_NATIVE_INT, row, &v);
+    } else {
+      const double v = it.*(s.real);
+      ok = ok && WriteRow(m.iterations, s.name, H5T_NATIVE_DOUBLE, row, &v);
+    }
+  }
+  const int status = static_cast<int>(it.status);
+  const std::vector<double> x = RowMajor(it.positions);
+  const Eigen::VectorXd sens = it.sensitivity.size() ? it.sensitivity : Eigen::VectorXd::Zero(m.faces);
+  ok = ok && WriteRow(m.iterations, "status", H5T_NATIVE_INT, row, &status) &&
+       WriteRow(m.iterations, "design", H5T_NATIVE_UINT8, row, it.design.data()) &&
+       WriteRow(m.iterations, "positions", H5T_NATIVE_DOUBLE, row, x.data()) &&
+       WriteRow(m.iterations, "energy_density_Pa", H5T_NATIVE_DOUBLE, row, it.energy_density_Pa.data()) &&
+       WriteRow(m.iterations, "sensitivity", H5T_NATIVE_DOUBLE, row, sens.data());
+  // Last: the commit marker.
+  ok = ok && WriteRow(m.iterations, "iteration", H5T_NATIVE_INT, row, &it.iteration);
+  if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0)
+    return Fail(m.path, "cannot write iteration " + std::to_string(it.iteration) + " (disk full?)");
+  ++count_;
+  return Status::Ok();
+}
+
+Result<DesignFile> ReadDesignFile(const std::string& path, const DesignFileReadOptions& options) {
+  SilenceHdf5();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return Fail(path, "no such file");
+  {
+    char signature[8] = {};
+    std::ifstream(path, std::ios::binary).read(signature, 8);
+    if (std::memcmp(signature, "\x89HDF\r\n\x1a\n", 8) != 0) return Fail(path, "not an HDF5 file");
+  }
+  // Without HDF5's file lock, so that a design file can be read while its job is still writing it
+  // (the writer flushes whole iterations; rows beyond /iterations/iteration are ignored).
+  Id fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  H5Pset_file_locking(fapl, false, true);
+  Id file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl), H5Fclose);
+  if (!file.ok()) return Fail(path, "cannot open the HDF5 file (damaged?)");
+  std::string format;
+  int version = 0;
+  if (!ReadStringAttribute(file, "format", &format) || format != kFormat)
+    return Fail(path, "not a kgd design file (attribute format is not \"" + std::string(kFormat) + "\")");
+  if (!ReadIntAttribute(file, "format_version", &version) || version != kFormatVersion)
+    return Fail(path, "design file format_version " + std::to_string(version) + " is not supported (this kgd reads " +
+                          std::to_string(kFormatVersion) + ")");
+  DesignFile out;
+  DesignFileHeader& h = out.header;
+  {
+    Id job(H5Gopen2(file, "job", H5P_DEFAULT), H5Gclose);
+    std::string settings;
+    if (!job.ok() || !ReadStringAttribute(job, "scene", &h.scene) || !ReadStringAttribute(job, "body", &h.body) ||
+        !ReadStringAttribute(job, "settings", &settings))
+      return Fail(path, "/job is missing or incomplete");
+    Result<BesoSettings> s = BesoSettingsFromJson(settings);
+    if (!s.ok()) return Fail(path, "/job settings: " + s.message());
+    h.settings = *s;
+  }
+  {
+    Id g(H5Gopen2(file, "garment", H5P_DEFAULT), H5Gclose);
+    if (!g.ok()) return Fail(path, "/garment is missing");
+    const std::vector<hsize_t> vs = Shape(g, "rest_vertices"), fs = Shape(g, "faces"), as = Shape(g, "rest_area"),
+                               is = Shape(g, "initial_positions"), ts = Shape(g, "attachment_faces");
+    if (vs.size() != 2 || vs[1] != 3 || fs.size() != 2 || fs[1] != 3 || as != std::vector<hsize_t>{fs[0]} || is != vs ||
+        ts.size() != 1)
+      return Fail(path, "/garment datasets are missing or have inconsistent shapes");
+    std::vector<double> rest(vs[0] * 3), initial(vs[0] * 3);
+    std::vector<int> faces(fs[0] * 3);
+    h.rest_area_m2.resize(fs[0]);
+    h.attachment_faces.resize(ts[0]);
+    if (!ReadAll(g, "rest_vertices", H5T_NATIVE_DOUBLE, rest.data()) || !ReadAll(g, "faces", H5T_NATIVE_INT, faces.data()) ||
+        !ReadAll(g, "rest_area", H5T_NATIVE_DOUBLE, h.rest_area_m2.data()) ||
+        !ReadAll(g, "initial_positions", H5T_NATIVE_DOUBLE, initial.data()) ||
+        (ts[0] > 0 && !ReadAll(g, "attachment_faces", H5T_NATIVE_INT, h.attachment_faces.data())))
+      return Fail(path, "cannot read /garment");
+    h.garment.vertices = FromRowMajor(rest);
+    h.initial = FromRowMajor(initial);
+    h.garment.faces.resize(fs[0], 3);
+    for (hsize_t f = 0; f < fs[0]; ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int v = faces[3 * f + k];
+        if (v < 0 || v >= static_cast<int>(vs[0]))
+          return Fail(path, "/garment/faces row " + std::to_string(f) + " has vertex index " + std::to_string(v) + " out of range");
+        h.garment.faces(f, k) = v;
+      }
+  }
+  Id its(H5Gopen2(file, "iterations", H5P_DEFAULT), H5Gclose);
+  if (!its.ok()) return Fail(path, "/iterations is missing");
+  const std::vector<hsize_t> ns = Shape(its, "iteration");
+  if (ns.size() != 1) return Fail(path, "/iterations/iteration is missing");
+  const hsize_t n = ns[0], nf = h.garment.faces.rows(), nv = h.garment.vertices.rows();
+  for (const std::string& name : DesignFileMetricNames()) {
+    const std::vector<hsize_t> s = Shape(its, name.c_str());
+    if (s.size() != 1 || s[0] < n) return Fail(path, "/iterations/" + name + " is missing or shorter than /iterations/iteration");
+  }
+  const std::vector<std::vector<hsize_t>> array_shapes = {{nf}, {nv, 3}, {nf}, {nf}};
+  for (int a = 0; a < 4; ++a) {
+    std::vector<hsize_t> s = Shape(its, kArrayNames[a]);
+    if (s.size() < 1 || s[0] < n || std::vector<hsize_t>(s.begin() + 1, s.end()) != array_shapes[a])
+      return Fail(path, std::string("/iterations/") + kArrayNames[a] + " is missing or does not match the garment");
+  }
+  out.iterations.resize(n);
+  for (hsize_t i = 0; i < n; ++i) {
+    BesoIteration& it = out.iterations[i];
+    bool ok = ReadRow(its, "iteration", H5T_NATIVE_INT, i, &it.iteration);
+    int status = 0;
+    ok = ok && ReadRow(its, "status", H5T_NATIVE_INT, i, &status);
+    it.status = static_cast<SolveStatus>(status);
+    for (const MetricSpec& s : Metrics())
+      ok = ok && (s.integer ? ReadRow(its, s.name, H5T_NATIVE_INT, i, &(it.*(s.whole)))
+                            : ReadRow(its, s.name, H5T_NATIVE_DOUBLE, i, &(it.*(s.real))));
+    if (!ok) return Fail(path, "cannot read the metrics of iteration row " + std::to_string(i));
+    if (it.iteration != static_cast<int>(i))
+      return Fail(path, "/iterations/iteration row " + std::to_string(i) + " holds " + std::to_string(it.iteration));
+    if (!options.arrays || (options.only_iteration >= 0 && options.only_iteration != static_cast<int>(i))) continue;
+    it.design.resize(nf);
+    std::vector<double> x(nv * 3);
+    it.energy_density_Pa.resize(nf);
+    it.sensitivity.resize(nf);
+    ok = ReadRow(its, "design", H5T_NATIVE_UINT8, i, it.design.data()) && ReadRow(its, "positions", H5T_NATIVE_DOUBLE, i, x.data()) &&
+         ReadRow(its, "energy_density_Pa", H5T_NATIVE_DOUBLE, i, it.energy_density_Pa.data()) &&
+         ReadRow(its, "sensitivity", H5T_NATIVE_DOUBLE, i, it.sensitivity.data());
+    if (!ok) return Fail(path, "cannot read the arrays of iteration " + std::to_string(i));
+    it.positions = FromRowMajor(x);
+    if (i == 0) it.sensitivity.resize(0);
+  }
+  if (options.only_iteration >= static_cast<int>(n))
+    return Fail(path, "iteration " + std::to_string(options.only_iteration) + " is not stored (the file has " + std::to_string(n) +
+                          " iterations, 0.." + std::to_string(static_cast<int>(n) - 1) + ")");
+  return out;
+}
+
+}  // namespace kgd

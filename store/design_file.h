@@ -1,0 +1,88 @@
+// The design file: one design job's whole history in HDF5 -- the garment, the job that made it, and
+// every BESO iteration's metrics, design, equilibrium positions, energy densities and sensitivities.
+// `kgd design` writes it; `kgd designs`, `kgd evaluate` and `kgd baselines` read it; the service
+// stores one per job. Layout (format_version 1; SI units; N iterations, V vertices, F faces):
+//
+//   /                            attrs format = "kgd design history", format_version = 1
+//   /job                         attrs scene (built-in name or scene-file path), body (measurement
+//                                overrides "name=value ..."), settings (BESO settings, JSON), kgd_version
+//   /garment/rest_vertices       (V,3) float64, m
+//   /garment/faces               (F,3) int32, 0-based vertex indices
+//   /garment/rest_area           (F)   float64, m^2
+//   /garment/initial_positions   (V,3) float64, m: the garment on the body in the deformed pose
+//   /garment/attachment_faces    (A)   int32
+//   /iterations/<metric>         (N)   one dataset per metric (DesignFileMetricNames): float64, or
+//                                int32 for iteration, status, solver_iterations, cold_restart
+//   /iterations/design           (N,F)   uint8, 1 = reinforced
+//   /iterations/positions        (N,V,3) float64, m
+//   /iterations/energy_density_Pa (N,F) float64, strain energy density W
+//   /iterations/sensitivity      (N,F)   float64, filtered averaged sensitivities (row 0: zeros)
+//
+// Per-iteration datasets are chunked one iteration per chunk and deflate-compressed, and grow by one
+// row per Append. /iterations/iteration is written last: its length is the number of complete
+// iterations, and a reader (or a resumed writer) ignores rows beyond it. The writer flushes the file
+// after every iteration (an interrupted `kgd design` resumes from the last one).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/beso/design_loop.h"
+#include "core/mesh/trimesh.h"
+#include "core/util/status.h"
+
+namespace kgd {
+
+// The job and garment, written once when the file is created.
+struct DesignFileHeader {
+  std::string scene;          // built-in scene name or scene-file path
+  std::string body;           // parametric body overrides, "name=value ..." (empty: defaults)
+  BesoSettings settings;
+  TriMesh garment;            // rest shape
+  Positions initial;          // on the body in the deformed pose
+  Eigen::VectorXd rest_area_m2;
+  std::vector<int> attachment_faces;
+};
+
+struct DesignFile {
+  DesignFileHeader header;
+  std::vector<BesoIteration> iterations;  // metrics always; arrays only when read with arrays
+};
+
+// Names of the per-iteration metric datasets, in table order.
+const std::vector<std::string>& DesignFileMetricNames();
+
+class DesignFileWriter {
+ public:
+  // Creates (or overwrites) `path` with the header and no iterations.
+  static Result<std::unique_ptr<DesignFileWriter>> Create(const std::string& path, const DesignFileHeader& header);
+  // Opens an existing file to append after its first `keep` iterations (later ones are dropped).
+  static Result<std::unique_ptr<DesignFileWriter>> Reopen(const std::string& path, int keep);
+  ~DesignFileWriter();
+
+  // Appends one iteration (its index must be the number stored so far) and flushes it to disk.
+  Status Append(const BesoIteration& iteration);
+  int num_iterations() const { return count_; }
+
+ private:
+  DesignFileWriter() = default;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  int count_ = 0;
+};
+
+struct DesignFileReadOptions {
+  bool arrays = true;         // designs, positions, densities, sensitivities (false: metrics only)
+  int only_iteration = -1;    // >= 0: arrays of this iteration only (metrics of all)
+};
+
+// Reads a design file. Errors name the file and what is wrong with it (not HDF5, wrong format or
+// version, inconsistent sizes).
+Result<DesignFile> ReadDesignFile(const std::string& path, const DesignFileReadOptions& options = {});
+
+// BESO settings as the JSON stored in /job (also used by the CLI for --json output).
+std::string BesoSettingsToJson(const BesoSettings& settings);
+Result<BesoSettings> BesoSettingsFromJson(const std::string& json);
+
+}  // namespace kgd

@@ -1,0 +1,162 @@
+// The design file round-trips a BESO history bit for bit, resumes by truncation, and refuses files that
+// are not design files with a message naming the file.
+#include "store/design_file.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "core/scene/scene.h"
+
+namespace kgd {
+namespace {
+
+std::string TempPath(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("kgd_design_file_test_" + name)).string();
+}
+
+struct Fixture {
+  SceneSpec scene;
+  BesoSettings settings;
+  DesignFileHeader header;
+  std::vector<BesoIteration> run;
+};
+
+Fixture MakeRun(int iterations) {
+  Fixture f;
+  f.scene = *PullTestScene("all_cloth");
+  f.settings.budget = 0.6;
+  f.settings.evolutionary_ratio = 0.05;
+  f.settings.admission_ratio = 0.05;
+  f.settings.max_iterations = iterations;
+  f.header.scene = "pull_test";
+  f.header.body = "";
+  f.header.settings = f.settings;
+  f.header.garment = f.scene.garment;
+  f.header.initial = f.scene.initial;
+  f.header.rest_area_m2 = FaceAreas(f.scene.garment.vertices, f.scene.garment.faces);
+  f.header.attachment_faces = {1, 2, 3};
+  f.run = *RunBeso(f.scene, f.settings);
+  return f;
+}
+
+void ExpectSame(const BesoIteration& a, const BesoIteration& b) {
+  EXPECT_EQ(a.iteration, b.iteration);
+  EXPECT_EQ(a.energy_J, b.energy_J);
+  EXPECT_EQ(a.density_ratio, b.density_ratio);
+  EXPECT_EQ(a.area_fraction, b.area_fraction);
+  EXPECT_EQ(a.target_area_m2, b.target_area_m2);
+  EXPECT_EQ(a.solver_iterations, b.solver_iterations);
+  EXPECT_EQ(a.status, b.status);
+  EXPECT_EQ(a.total_s, b.total_s);
+  EXPECT_EQ(a.design, b.design);
+  EXPECT_TRUE(a.positions == b.positions);
+  EXPECT_TRUE(a.energy_density_Pa == b.energy_density_Pa);
+  EXPECT_TRUE(a.sensitivity == b.sensitivity) << "iteration " << a.iteration;
+}
+
+TEST(DesignFile, RoundTripsAHistoryBitForBit) {
+  const Fixture f = MakeRun(4);
+  ASSERT_EQ(f.run.size(), 5u);
+  const std::string path = TempPath("roundtrip.h5");
+  {
+    auto w = DesignFileWriter::Create(path, f.header);
+    ASSERT_TRUE(w.ok()) << w.message();
+    for (const BesoIteration& it : f.run) ASSERT_TRUE((*w)->Append(it).ok());
+    // Out of order is refused.
+    EXPECT_FALSE((*w)->Append(f.run[1]).ok());
+  }
+  const Result<DesignFile> d = ReadDesignFile(path);
+  ASSERT_TRUE(d.ok()) << d.message();
+  EXPECT_EQ(d->header.scene, "pull_test");
+  EXPECT_EQ(d->header.settings.budget, 0.6);
+  EXPECT_EQ(d->header.settings.max_iterations, 4);
+  EXPECT_TRUE(d->header.garment.vertices == f.scene.garment.vertices);
+  EXPECT_TRUE(d->header.garment.faces == f.scene.garment.faces);
+  EXPECT_TRUE(d->header.initial == f.scene.initial);
+  EXPECT_EQ(d->header.attachment_faces, (std::vector<int>{1, 2, 3}));
+  ASSERT_EQ(d->iterations.size(), f.run.size());
+  for (size_t k = 0; k < f.run.size(); ++k) ExpectSame(d->iterations[k], f.run[k]);
+
+  // Metrics only, and one iteration's arrays.
+  const Result<DesignFile> m = ReadDesignFile(path, {.arrays = false});
+  ASSERT_TRUE(m.ok());
+  EXPECT_TRUE(m->iterations[3].design.empty());
+  EXPECT_EQ(m->iterations[3].density_ratio, f.run[3].density_ratio);
+  const Result<DesignFile> one = ReadDesignFile(path, {.arrays = true, .only_iteration = 2});
+  ASSERT_TRUE(one.ok());
+  EXPECT_EQ(one->iterations[2].design, f.run[2].design);
+  EXPECT_TRUE(one->iterations[1].design.empty());
+  const Result<DesignFile> missing = ReadDesignFile(path, {.arrays = true, .only_iteration = 9});
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.message().find("iteration 9 is not stored"), std::string::npos) << missing.message();
+  std::filesystem::remove(path);
+}
+
+TEST(DesignFile, ReopenKeepsThePrefixAndResumedRunsMatchUninterruptedOnes) {
+  const Fixture f = MakeRun(6);
+  const std::string path = TempPath("resume.h5");
+  {
+    auto w = DesignFileWriter::Create(path, f.header);
+    ASSERT_TRUE(w.ok());
+    for (size_t k = 0; k < 5; ++k) ASSERT_TRUE((*w)->Append(f.run[k]).ok());
+  }
+  // Resume after iteration 2 (drop 3 and 4) from what the file holds.
+  {
+    auto w = DesignFileWriter::Reopen(path, 3);
+    ASSERT_TRUE(w.ok()) << w.message();
+    EXPECT_EQ((*w)->num_iterations(), 3);
+  }
+  const Result<DesignFile> stored = ReadDesignFile(path);
+  ASSERT_TRUE(stored.ok());
+  ASSERT_EQ(stored->iterations.size(), 3u);
+  {
+    auto w = DesignFileWriter::Reopen(path, 3);
+    ASSERT_TRUE(w.ok()) << w.message();
+    const Result<std::vector<BesoIteration>> rest = RunBeso(f.scene, f.settings, {}, &stored->iterations);
+    ASSERT_TRUE(rest.ok()) << rest.message();
+    for (const BesoIteration& it : *rest) ASSERT_TRUE((*w)->Append(it).ok());
+  }
+  const Result<DesignFile> d = ReadDesignFile(path);
+  ASSERT_TRUE(d.ok());
+  ASSERT_EQ(d->iterations.size(), f.run.size());
+  for (size_t k = 0; k < f.run.size(); ++k) {
+    EXPECT_EQ(d->iterations[k].design, f.run[k].design) << "iteration " << k;
+    EXPECT_TRUE(d->iterations[k].positions == f.run[k].positions) << "iteration " << k;
+    EXPECT_EQ(d->iterations[k].energy_J, f.run[k].energy_J) << "iteration " << k;
+  }
+  EXPECT_FALSE(DesignFileWriter::Reopen(path, 99).ok());
+  std::filesystem::remove(path);
+}
+
+TEST(DesignFile, RefusesFilesThatAreNotDesignFiles) {
+  const std::string text = TempPath("text.h5");
+  std::ofstream(text) << "hello\n";
+  Result<DesignFile> d = ReadDesignFile(text);
+  ASSERT_FALSE(d.ok());
+  EXPECT_NE(d.message().find(text), std::string::npos);
+  EXPECT_NE(d.message().find("not an HDF5 file"), std::string::npos) << d.message();
+  d = ReadDesignFile(TempPath("does_not_exist.h5"));
+  ASSERT_FALSE(d.ok());
+  EXPECT_FALSE(DesignFileWriter::Create("/nonexistent-folder/x.h5", MakeRun(1).header).ok());
+  std::filesystem::remove(text);
+}
+
+TEST(DesignFile, SettingsJsonRoundTripsAndRejectsBadValues) {
+  BesoSettings s;
+  s.budget = 0.2;
+  s.keep_attachments = true;
+  s.max_iterations = 17;
+  const Result<BesoSettings> back = BesoSettingsFromJson(BesoSettingsToJson(s));
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(back->budget, 0.2);
+  EXPECT_TRUE(back->keep_attachments);
+  EXPECT_EQ(back->max_iterations, 17);
+  EXPECT_FALSE(BesoSettingsFromJson("{\"budget\": 2}").ok());
+  EXPECT_FALSE(BesoSettingsFromJson("{\"bugdet\": 0.2}").ok());
+  EXPECT_FALSE(BesoSettingsFromJson("[1,2]").ok());
+}
+
+}  // namespace
+}  // namespace kgd

@@ -1,0 +1,171 @@
+// `kgd design`, `kgd designs`, `kgd evaluate`, `kgd baselines` as a user runs them: the real binary,
+// real HDF5 files. Determinism, stop-and-resume (by --iterations and by Ctrl-C) giving the designs of
+// an uninterrupted run bit for bit, and bad parameters refused with a message naming them.
+#include <gtest/gtest.h>
+
+#include "tests/kgd_cli.h"
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "store/design_file.h"
+
+namespace kgd {
+namespace {
+
+namespace fs = std::filesystem;
+
+using ::kgd::cli_test::CommandRun;
+using ::kgd::cli_test::Kgd;
+
+class DesignCommand : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / "kgd_design_command" / ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  std::string Path(const std::string& name) const { return (dir_ / name).string(); }
+  fs::path dir_;
+};
+
+// A small, quick job: the pull test from all reinforced down to 60 %.
+const std::string kJob = "design pull_test_all_cloth --budget 0.6 --er 0.05 --ar-max 0.05";
+
+void ExpectSameDesigns(const DesignFile& a, const DesignFile& b) {
+  ASSERT_EQ(a.iterations.size(), b.iterations.size());
+  for (size_t k = 0; k < a.iterations.size(); ++k) {
+    EXPECT_EQ(a.iterations[k].design, b.iterations[k].design) << "iteration " << k;
+    EXPECT_TRUE(a.iterations[k].positions == b.iterations[k].positions) << "iteration " << k;
+    EXPECT_EQ(a.iterations[k].energy_J, b.iterations[k].energy_J) << "iteration " << k;
+    EXPECT_EQ(a.iterations[k].density_ratio, b.iterations[k].density_ratio) << "iteration " << k;
+  }
+}
+
+TEST_F(DesignCommand, RunsDeterministicallyAndResumesBitForBit) {
+  CommandRun r = Kgd(kJob + " --iterations 12 --out " + Path("a.h5"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // Not a terminal: JSON lines, one per iteration, then a summary.
+  EXPECT_NE(r.output.find("{\"iteration\":12,"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"event\":\"done\""), std::string::npos) << r.output;
+  ASSERT_EQ(Kgd(kJob + " --iterations 12 --out " + Path("b.h5")).exit_code, 0);
+  // Stopped after iteration 4, then resumed to 12.
+  ASSERT_EQ(Kgd(kJob + " --iterations 4 --out " + Path("c.h5")).exit_code, 0);
+  Result<DesignFile> c4 = ReadDesignFile(Path("c.h5"), {.arrays = false});
+  ASSERT_TRUE(c4.ok());
+  EXPECT_EQ(c4->iterations.size(), 5u);
+  r = Kgd("design --resume " + Path("c.h5") + " --iterations 12");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(r.output.find("{\"iteration\":4,"), std::string::npos) << "resumed runs start after the last stored iteration";
+  EXPECT_NE(r.output.find("{\"iteration\":5,"), std::string::npos) << r.output;
+
+  const Result<DesignFile> a = ReadDesignFile(Path("a.h5")), b = ReadDesignFile(Path("b.h5")), c = ReadDesignFile(Path("c.h5"));
+  ASSERT_TRUE(a.ok() && b.ok() && c.ok());
+  ASSERT_EQ(a->iterations.size(), 13u);
+  ExpectSameDesigns(*a, *b);
+  ExpectSameDesigns(*a, *c);
+  // The designs lose area towards the budget and each is binary with the recorded area.
+  const Eigen::VectorXd& area = a->header.rest_area_m2;
+  for (const BesoIteration& it : a->iterations) {
+    double reinforced = 0;
+    for (size_t f = 0; f < it.design.size(); ++f) {
+      ASSERT_TRUE(it.design[f] == 0 || it.design[f] == 1);
+      reinforced += it.design[f] * area[f];
+    }
+    EXPECT_NEAR(reinforced / area.sum(), it.area_fraction, 1e-12);
+  }
+  EXPECT_LT(a->iterations.back().area_fraction, 0.65);
+
+  // The history as a table and as JSON.
+  r = Kgd("designs " + Path("a.h5"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("13 iterations"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("density_J/m2"), std::string::npos) << r.output;
+  r = Kgd("designs --json " + Path("a.h5"));
+  ASSERT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.output.find("\"scene\":\"pull_test_all_cloth\""), std::string::npos) << r.output;
+}
+
+TEST_F(DesignCommand, CtrlCStopsCleanlyAndTheRunResumes) {
+  // Start a longer job, interrupt it once a few iterations are in, resume it to the end.
+  const std::string cmd = std::string(KGD_BINARY) + " " + kJob + " --iterations 14 --out " + Path("i.h5");
+  int out_pipe[2];
+  ASSERT_EQ(pipe(out_pipe), 0);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    dup2(out_pipe[1], 1);
+    close(out_pipe[0]);
+    execl("/bin/sh", "sh", "-c", ("exec " + cmd).c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  close(out_pipe[1]);
+  FILE* out = fdopen(out_pipe[0], "r");
+  char line[8192];
+  int seen = 0;
+  while (fgets(line, sizeof line, out))
+    if (std::string(line).rfind("{\"iteration\":", 0) == 0 && ++seen == 3) {
+      kill(pid, SIGINT);
+      break;
+    }
+  while (fgets(line, sizeof line, out)) {
+  }
+  fclose(out);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 130);
+  Result<DesignFile> stopped = ReadDesignFile(Path("i.h5"), {.arrays = false});
+  ASSERT_TRUE(stopped.ok()) << stopped.message();
+  EXPECT_GE(stopped->iterations.size(), 3u);
+  EXPECT_LT(stopped->iterations.size(), 15u);
+  ASSERT_EQ(Kgd("design --resume " + Path("i.h5")).exit_code, 0);
+  ASSERT_EQ(Kgd(kJob + " --iterations 14 --out " + Path("u.h5")).exit_code, 0);
+  const Result<DesignFile> resumed = ReadDesignFile(Path("i.h5")), straight = ReadDesignFile(Path("u.h5"));
+  ASSERT_TRUE(resumed.ok() && straight.ok());
+  ExpectSameDesigns(*resumed, *straight);
+}
+
+TEST_F(DesignCommand, BadParametersAreRefused) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"--budget 0", "budget = 0"},          {"--budget 1.5", "budget = 1.5"}, {"--er 0", "evolutionary_ratio (ER) = 0"},
+      {"--ar-max -0.1", "admission_ratio (AR_max) = -0.1"}, {"--penalty 0.5", "penalty (p) = 0.5"},
+  };
+  for (const auto& [args, needle] : cases) {
+    const CommandRun r = Kgd("design pull_test_all_cloth " + args + " --out " + Path("bad.h5"));
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(needle), std::string::npos) << args << "\n" << r.output;
+  }
+  EXPECT_FALSE(fs::exists(Path("bad.h5"))) << "nothing is written for a refused job";
+  CommandRun r = Kgd("design no_such_scene --out " + Path("x.h5"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  std::ofstream(Path("text.h5")) << "not hdf5\n";
+  r = Kgd("designs " + Path("text.h5"));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("text.h5: not an HDF5 file"), std::string::npos) << r.output;
+  r = Kgd("design --resume " + Path("text.h5"));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("not an HDF5 file"), std::string::npos) << r.output;
+}
+
+TEST_F(DesignCommand, EvaluateAndBaselinesReadTheFile) {
+  ASSERT_EQ(Kgd(kJob + " --iterations 3 --out " + Path("e.h5")).exit_code, 0);
+  // The pull test has no motion frames: evaluate simulates its one pose, beside the fully reinforced design.
+  CommandRun r = Kgd("evaluate --json " + Path("e.h5"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("\"frames\":[{\"frame\":1"), std::string::npos) << r.output;
+  r = Kgd("evaluate " + Path("e.h5") + " --iteration 7");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("iteration 7 is not stored"), std::string::npos) << r.output;
+  // Its clamps are not attachment bands: baselines say why they cannot be drawn.
+  r = Kgd("baselines " + Path("e.h5"));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("this garment has 0"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace kgd
