@@ -32,7 +32,7 @@ struct Job {
 const Job kJobs[] = {
     {"builtin_arm_flexion", "arm_flexion", false, "", 0, 0.15},
     {"builtin_knee_flexion", "knee_flexion", false, "", 0, 0.10},
-    {"makehuman_arm_flexion", "arm_flexion", true, "sleeve_arm", 1, 0.15},
+    {"makehuman_arm_flexion", "arm_flexion", true, "sleeve_arm", 2, 0.15},
     {"makehuman_knee_flexion", "knee_flexion", true, "sleeve_knee", 2, 0.10},
 };
 void PrintTo(const Job& j, std::ostream* os) { *os << j.name; }
