@@ -177,8 +177,12 @@ int RunDesign(const DesignOptions& o) {
   Status write_status = Status::Ok();
   std::vector<double> recent;  // seconds of the last iterations, for the ETA
   double elapsed = 0;
-  const BesoIteration* last_seen = nullptr;
-  BesoIteration last_copy = stored.empty() ? BesoIteration{} : stored.back();
+  // Metrics of the last iteration stored (arrays are not needed for the summary).
+  BesoIteration end;
+  if (!stored.empty()) {
+    end = stored.back();
+    end.positions.resize(0, 3);
+  }
   auto on_iteration = [&](const BesoIteration& it) {
     write_status = writer->Append(it);
     elapsed += it.total_s;
@@ -204,8 +208,10 @@ int RunDesign(const DesignOptions& o) {
       std::printf("%s\n", j.dump().c_str());
     }
     std::fflush(stdout);
-    last_copy = it;
-    last_seen = &last_copy;
+    end.iteration = it.iteration;
+    end.area_fraction = it.area_fraction;
+    end.density_ratio = it.density_ratio;
+    end.reinforced_density_J_per_m2 = it.reinforced_density_J_per_m2;
     return write_status.ok() && !g_interrupted;
   };
   const Result<std::vector<BesoIteration>> run = RunBeso(scene, settings, on_iteration, stored.empty() ? nullptr : &stored);
@@ -214,7 +220,6 @@ int RunDesign(const DesignOptions& o) {
   if (bar) std::printf("\n");
   if (!write_status.ok()) return Fail("design", write_status.message());
   if (!run.ok()) return Fail("design", run.message() + " (iterations so far are in " + path + ")", 3);
-  const BesoIteration& end = last_seen ? *last_seen : last_copy;
   if (g_interrupted) {
     std::fprintf(stderr, "kgd design: stopped after iteration %d; continue with: kgd design --resume %s\n", end.iteration, path.c_str());
     return 130;
