@@ -91,14 +91,7 @@ void BM_WarmResolve(benchmark::State& state) {
     failures += !r.converged();
     energy = r.energy_J;
     ++steps;
-    total.iterations += r.iterations;
-    total.factorizations += r.factorizations;
-    total.pcg_solves += r.pcg_solves;
-    total.pcg_iterations += r.pcg_iterations;
-    total.assembly_s += r.assembly_s;
-    total.factorization_s += r.factorization_s;
-    total.solve_s += r.solve_s;
-    total.line_search_s += r.line_search_s;
+    AccumulateSolve(&total, r);
   }
   state.counters["iterations"] = double(total.iterations) / steps;
   state.counters["factorizations"] = double(total.factorizations) / steps;

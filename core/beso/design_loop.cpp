@@ -114,9 +114,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
       // against the fold barrier); the garment on the body is the start the scene was made for.
       x = scene.initial;
       sim.ResetFactorization();
-      const int first_iterations = report.iterations;
-      report = SolveLagged(sim, sys, &x, scene.solver);
-      report.iterations += first_iterations;
+      AccumulateSolve(&report, SolveLagged(sim, sys, &x, scene.solver));
       b.cold_restart = 1;
     }
     b.simulation_s = Since(t0);

@@ -261,25 +261,29 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   }
 }
 
-SolveReport SolveLagged(Simulator& sim, GarmentSystem& system, Positions* x, const SolverSettings& settings, int lag_updates) {
+void AccumulateSolve(SolveReport* total, const SolveReport& later) {
+  SolveReport sum = later;
+  sum.iterations += total->iterations;
+  sum.seconds += total->seconds;
+  sum.assembly_s += total->assembly_s;
+  sum.factorization_s += total->factorization_s;
+  sum.solve_s += total->solve_s;
+  sum.line_search_s += total->line_search_s;
+  sum.factorizations += total->factorizations;
+  sum.pcg_solves += total->pcg_solves;
+  sum.pcg_iterations += total->pcg_iterations;
+  sum.energy_evaluations += total->energy_evaluations;
+  *total = sum;
+}
+
+SolveReport SolveLagged(Simulator& sim, GarmentSystem& system, Positions* x, const SolverSettings& settings) {
   const Effects& fx = system.model().effects;
   if (!(fx.friction > 0) || fx.contact == ContactModel::kNone) return sim.Solve(x, settings);
   SolveReport total;
-  for (int pass = 0; pass <= lag_updates; ++pass) {
+  for (int pass = 0; pass < 2; ++pass) {
     system.LagFriction(*x);
-    SolveReport r = sim.Solve(x, settings);
-    r.iterations += total.iterations;
-    r.seconds += total.seconds;
-    r.assembly_s += total.assembly_s;
-    r.factorization_s += total.factorization_s;
-    r.solve_s += total.solve_s;
-    r.line_search_s += total.line_search_s;
-    r.factorizations += total.factorizations;
-    r.pcg_solves += total.pcg_solves;
-    r.pcg_iterations += total.pcg_iterations;
-    r.energy_evaluations += total.energy_evaluations;
-    total = r;
-    if (!r.converged()) break;
+    AccumulateSolve(&total, sim.Solve(x, settings));
+    if (!total.converged()) break;
   }
   return total;
 }

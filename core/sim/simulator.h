@@ -95,9 +95,13 @@ class Simulator {
   std::unique_ptr<Newton> newton_;
 };
 
+// Adds the work of `later` (iterations, times, counters) to `*total`, which then reports `later`'s
+// outcome (status, energy, residual): the account of solves made one after another.
+void AccumulateSolve(SolveReport* total, const SolveReport& later);
+
 // A solve with friction's lagged data (friction.h) brought up to date: takes them at *x and solves,
-// then `lag_updates` more times takes them at the equilibrium and re-solves (IPC's lagged iterations).
-// Without friction, one Solve. Iterations, times and counters add up over the solves.
-SolveReport SolveLagged(Simulator& sim, GarmentSystem& system, Positions* x, const SolverSettings& settings, int lag_updates = 1);
+// then takes them at the equilibrium and solves again (one of IPC's lagged iterations). Without
+// friction, one Solve. Iterations, times and counters add up over the solves.
+SolveReport SolveLagged(Simulator& sim, GarmentSystem& system, Positions* x, const SolverSettings& settings);
 
 }  // namespace kgd
