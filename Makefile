@@ -12,12 +12,11 @@ build: setup
 	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
 	cmake --build $(BUILD) -j$(JOBS)
 
-# The main job. Until the design service exists: a design job run locally on the built-in arm-flexion
-# scene (parametric body, sleeve over the elbow flexed from 15 to 100 degrees), about 3 minutes on two
-# cores, with its history written to $(BUILD)/arm_flexion.h5 and summarized.
+# The main job on the embedded default: `kgd serve` (server + in-process worker, SQLite and HDF5 in
+# $(BUILD)/demo-data), the built-in arm-flexion design job submitted and watched live through the CLI
+# (about 3 minutes on two cores), then where its result is.
 demo: build
-	$(BUILD)/client/kgd design arm_flexion --out $(BUILD)/arm_flexion.h5
-	$(BUILD)/client/kgd designs $(BUILD)/arm_flexion.h5 | tail -n 4
+	bash scripts/demo.sh $(BUILD)
 
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j$(JOBS) -LE acceptance

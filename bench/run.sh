@@ -6,3 +6,4 @@ nproc; lscpu | grep -E "Model name|^CPU\(s\)" || true
 "$build/bench/simulate_benchmark" --benchmark_counters_tabular=true "${@:2}"
 "$build/bench/body_benchmark" --benchmark_counters_tabular=true "${@:2}"
 "$build/bench/design_benchmark" --benchmark_counters_tabular=true "${@:2}"
+"$build/bench/service_benchmark"

@@ -78,19 +78,6 @@ int RunBody(const BodyOptions& o) {
 
 }  // namespace
 
-Result<std::optional<BodyMeasurements>> ParseBodyMeasurements(const std::vector<std::string>& items) {
-  if (items.empty()) return std::optional<BodyMeasurements>();
-  BodyMeasurements m;
-  for (const std::string& item : items) {
-    const size_t eq = item.find('=');
-    if (eq == std::string::npos) return Status::Error("--body " + item + ": expected name=value, e.g. upper_arm_circumference_m=0.32");
-    Result<double> v = ParseNumber("--body", item, item.substr(eq + 1));
-    if (!v.ok()) return v.status();
-    if (Status st = SetMeasurement(&m, item.substr(0, eq), *v); !st.ok()) return st;
-  }
-  return std::optional<BodyMeasurements>(m);
-}
-
 void AddBodyCommand(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<BodyOptions>();
   CLI::App* cmd = app.add_subcommand("body", "Write the parametric body, made to measure, in a rest and a deformed pose (and frames) as OBJ files");

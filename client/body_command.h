@@ -1,5 +1,4 @@
-// `kgd body`: the parametric body made to measure and posed, written as meshes a scene file can name;
-// and the parsing of `--body name=value` measurements shared with `kgd simulate` and `kgd scene export`.
+// `kgd body`: the parametric body made to measure and posed, written as meshes a scene file can name.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -11,9 +10,6 @@
 #include "core/util/status.h"
 
 namespace kgd::cli {
-
-// `name=value` items (SI) into measurements; none given: no value.
-Result<std::optional<BodyMeasurements>> ParseBodyMeasurements(const std::vector<std::string>& items);
 
 // Registers `kgd body`; it sets *exit_code when it runs.
 void AddBodyCommand(CLI::App& app, int* exit_code);

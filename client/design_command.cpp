@@ -13,7 +13,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "client/optimizer_flags.h"
 #include "client/simulate_command.h"
+#include "proto/job_spec.h"
 #include "core/beso/baselines.h"
 #include "core/beso/design_loop.h"
 #include "core/mesh/mesh_io.h"
@@ -26,21 +28,13 @@ namespace {
 std::atomic<bool> g_interrupted{false};
 extern "C" void OnInterrupt(int) { g_interrupted = true; }
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr int kUnset = std::numeric_limits<int>::min();
-bool Given(double v) { return !std::isnan(v); }
-bool Given(int v) { return v != kUnset; }
-
 struct DesignOptions {
   std::string scene;
   std::vector<std::string> body;
   std::string out;
   std::string resume;
-  // Unset: NaN / kUnset (any value given, even a bad one, is used and then validated).
-  double budget = kNaN, er = kNaN, ar = kNaN, penalty = kNaN, d_min = kNaN, tau = kNaN;
-  int iterations = kUnset, window = kUnset, max_newton = kUnset;
-  double grad_tol = kNaN;
-  bool keep_attachments = false, no_averaging = false, average_with_raw = false, json = false, verbose = false;
+  OptimizerFlags optimizer;
+  bool json = false, verbose = false;
 };
 
 std::vector<std::string> SplitWords(const std::string& s) {
@@ -103,8 +97,8 @@ int Fail(const char* command, const std::string& message, int code = 2) {
 
 int RunDesign(const DesignOptions& o) {
   const bool resume = !o.resume.empty();
-  if (resume && (Given(o.budget) || Given(o.er) || Given(o.ar) || Given(o.penalty) || Given(o.d_min) || Given(o.tau) || Given(o.window) ||
-                 o.keep_attachments || o.no_averaging || o.average_with_raw || !o.body.empty() || !o.out.empty()))
+  const v1::OptimizerSettings optimizer = ToProto(o.optimizer);
+  if (resume && (AnyDesignFlagGiven(o.optimizer) || !o.body.empty() || !o.out.empty()))
     return Fail("design", "--resume continues the stored job with its own settings; only --iterations may be given with it");
   if (!resume && o.scene.empty()) return Fail("design", "give a scene (a built-in name or a scene file), or --resume FILE");
   if (resume && !o.scene.empty()) return Fail("design", "give either a scene or --resume FILE, not both");
@@ -123,7 +117,7 @@ int RunDesign(const DesignOptions& o) {
     if (!file.ok()) return Fail("design", file.message());
     header = file->header;
     stored = std::move(file->iterations);
-    if (Given(o.iterations)) header.settings.max_iterations = o.iterations;
+    if (optimizer.has_max_iterations()) header.settings.max_iterations = optimizer.max_iterations();
     if (Status st = ValidateBesoSettings(header.settings); !st.ok()) return Fail("design", st.message());
     Result<SceneSpec> s = SceneOfDesignFile(path, header);
     if (!s.ok()) return Fail("design", s.message());
@@ -135,19 +129,9 @@ int RunDesign(const DesignOptions& o) {
     Result<SceneSpec> s = ResolveScene(o.scene, o.body);
     if (!s.ok()) return Fail("design", s.message());
     scene = std::move(s).value();
-    BesoSettings& st = header.settings;
-    st.budget = Given(o.budget) ? o.budget : (scene.budget < 1 ? scene.budget : st.budget);
-    if (Given(o.er)) st.evolutionary_ratio = o.er;
-    if (Given(o.ar)) st.admission_ratio = o.ar;
-    if (Given(o.penalty)) st.penalty = o.penalty;
-    if (Given(o.d_min)) st.d_min = o.d_min;
-    if (Given(o.tau)) st.tau = o.tau;
-    if (Given(o.window)) st.converge_window = o.window;
-    if (Given(o.iterations)) st.max_iterations = o.iterations;
-    st.keep_attachments = o.keep_attachments;
-    st.temporal_averaging = !o.no_averaging;
-    st.average_with_raw = o.average_with_raw;
-    if (Status v = ValidateBesoSettings(st); !v.ok()) return Fail("design", v.message());
+    Result<BesoSettings> settings = SettingsOfJob(optimizer, scene.budget);
+    if (!settings.ok()) return Fail("design", settings.message());
+    header.settings = *settings;
     header.scene = std::filesystem::exists(o.scene) ? std::filesystem::absolute(o.scene).string() : o.scene;
     header.body = JoinWords(o.body);
     header.garment = scene.garment;
@@ -159,8 +143,7 @@ int RunDesign(const DesignOptions& o) {
     if (!w.ok()) return Fail("design", w.message());
     writer = std::move(w).value();
   }
-  if (Given(o.max_newton)) scene.solver.max_iterations = o.max_newton;
-  if (Given(o.grad_tol)) scene.solver.grad_tol = o.grad_tol;
+  ApplySolverOverrides(optimizer, &scene.solver);
   if (o.verbose)
     scene.solver.on_iteration = [](const IterationInfo& i) {
       std::fprintf(stderr, "  newton %4d  E %.12g J  |g| %.3e N  alpha %.3g  delta %.3g%s\n", i.iteration, i.energy_J, i.grad_norm_N,
@@ -406,20 +389,7 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
   d->add_option("--body", o->body, "A measurement of the parametric body, name=value in SI (repeatable)");
   d->add_option("--out", o->out, "Design file to write (default: SCENE.h5 in the current folder)");
   d->add_option("--resume", o->resume, "Continue the job stored in this design file after its last iteration");
-  d->add_option("--budget", o->budget, "Reinforced area at the end, as a fraction of the garment area, in (0, 1] (default: the scene's)");
-  d->add_option("--iterations", o->iterations, "Stop after this BESO iteration at the latest (default 400)");
-  d->add_option("--er", o->er, "Evolutionary ratio ER: the target area shrinks by this fraction per iteration (default 0.015)");
-  d->add_option("--ar-max", o->ar, "Admission limit AR_max: at most this fraction of the garment turns reinforced per iteration (default 0.015)");
-  d->add_option("--penalty", o->penalty, "Interpolation exponent p, >= 1 (default 1.6)");
-  d->add_option("--d-min", o->d_min, "Design value of the soft material in the sensitivity formula (default 0.001)");
-  d->add_option("--tau", o->tau, "Stop when the objective changes by less than tau (relative) ... (default 1e-3)");
-  d->add_option("--window", o->window, "... over this many iterations, with the budget reached (default 5)");
-  d->add_flag("--keep-attachments", o->keep_attachments, "Attachment triangles stay reinforced");
-  d->add_flag("--no-averaging", o->no_averaging, "No temporal averaging of the sensitivities");
-  d->add_flag("--average-with-raw", o->average_with_raw,
-              "Average with the previous iteration's filtered, not averaged, sensitivities (the authors' code)");
-  d->add_option("--max-newton", o->max_newton, "Solver iteration limit per BESO iteration (default 200)")->check(CLI::PositiveNumber);
-  d->add_option("--grad-tol", o->grad_tol, "Solver gradient tolerance, dimensionless (default 1e-4, see docs/MODEL.md)")->check(CLI::PositiveNumber);
+  AddOptimizerFlags(d, &o->optimizer);
   d->add_flag("-v,--verbose", o->verbose, "Print every solver iteration to stderr");
   d->add_flag("--json", o->json, "Print one JSON line per iteration (the default when stdout is not a terminal)");
   d->callback([o, exit_code] { *exit_code = RunDesign(*o); });

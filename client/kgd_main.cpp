@@ -4,6 +4,7 @@
 
 #include "client/body_command.h"
 #include "client/design_command.h"
+#include "client/service_commands.h"
 #include "client/simulate_command.h"
 
 int main(int argc, char** argv) {
@@ -13,6 +14,7 @@ int main(int argc, char** argv) {
   kgd::cli::AddSimulateCommands(app, &exit_code);
   kgd::cli::AddBodyCommand(app, &exit_code);
   kgd::cli::AddDesignCommands(app, &exit_code);
+  kgd::cli::AddServiceCommands(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

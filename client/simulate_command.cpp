@@ -173,18 +173,6 @@ int RunSimulate(const SimulateOptions& o) {
 
 }  // namespace
 
-Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items) {
-  Result<std::optional<BodyMeasurements>> body = ParseBodyMeasurements(body_items);
-  if (!body.ok()) return body.status();
-  if (std::filesystem::exists(arg)) {
-    if (*body) return Status::Error(arg + ": --body applies to built-in scenes, not to scene files");
-    return LoadScene(arg);
-  }
-  if (arg.find('/') != std::string::npos || (arg.size() > 5 && arg.substr(arg.size() - 5) == ".json"))
-    return Status::Error(arg + ": no such scene file");
-  return *body ? BuiltinScene(arg, **body) : BuiltinScene(arg);
-}
-
 void AddSimulateCommands(CLI::App& app, int* exit_code) {
   auto opts = std::make_shared<SimulateOptions>();
   CLI::App* sim = app.add_subcommand("simulate", "Simulate a scene to equilibrium in its deformed pose");

@@ -12,6 +12,9 @@ PACKAGES=(
   libcli11-dev             # command-line parsing for the kgd CLI
   nlohmann-json3-dev       # scene files and --json output
   libhdf5-dev              # design files: the history of a design job (meshes, designs, positions)
+  libsqlite3-dev           # the service's job queue and iteration metrics (server/)
+  libprotobuf-dev protobuf-compiler   # the kgd.v1 schema (proto/)
+  libgrpc++-dev protobuf-compiler-grpc  # the design service (gRPC server, workers, CLI)
   libgtest-dev libgmock-dev  # unit and integration tests
   libbenchmark-dev         # benchmarks in bench/
 )

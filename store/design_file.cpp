@@ -281,6 +281,24 @@ struct DesignFileWriter::Impl {
 };
 
 DesignFileWriter::~DesignFileWriter() = default;
+int DesignFileWriter::faces() const { return impl_->faces; }
+int DesignFileWriter::vertices() const { return impl_->vertices; }
+
+// File access for writers: the newest format (SWMR needs it). `clear_flags`: a writer killed in SWMR mode
+// leaves the superblock marked "open for write", which a plain open refuses; reopening clears the
+// mark the way the h5clear tool does (its property, "clear_status_flags", is not in the public API).
+Id WriterAccess(bool clear_flags) {
+  Id fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  H5Pset_libver_bounds(fapl, H5F_LIBVER_LATEST, H5F_LIBVER_LATEST);
+  // Locking off as for readers: HDF5 refuses a second open in one process (the server reading a job it
+  // writes) when the flags differ. One writer per file is the caller's guarantee (the server's leases).
+  H5Pset_file_locking(fapl, false, true);
+  if (clear_flags) {
+    hbool_t clear = true;
+    H5Pset(fapl, "clear_status_flags", &clear);
+  }
+  return fapl;
+}
 
 Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::string& path, const DesignFileHeader& h) {
   SilenceHdf5();
@@ -293,7 +311,8 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
   m.path = path;
   m.faces = static_cast<int>(nf);
   m.vertices = static_cast<int>(nv);
-  m.file = Id(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+  Id fapl = WriterAccess(false);
+  m.file = Id(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl), H5Fclose);
   if (!m.file.ok()) return Fail(path, "cannot create the HDF5 file (does the folder exist, is it writable?)");
   bool ok = WriteStringAttribute(m.file, "format", kFormat) && WriteIntAttribute(m.file, "format_version", kFormatVersion);
   {
@@ -325,6 +344,7 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
        CreateGrowing(m.iterations, "energy_density_Pa", H5T_IEEE_F64LE, {nf}) &&
        CreateGrowing(m.iterations, "sensitivity", H5T_IEEE_F64LE, {nf});
   if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot write the design file (disk full?)");
+  if (H5Fstart_swmr_write(m.file) < 0) return Fail(path, "cannot start single-writer/multiple-reader mode");
   return w;
 }
 
@@ -341,7 +361,8 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
   m.path = path;
   m.faces = static_cast<int>(existing->header.garment.faces.rows());
   m.vertices = static_cast<int>(existing->header.garment.vertices.rows());
-  m.file = Id(H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
+  Id fapl = WriterAccess(true);
+  m.file = Id(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl), H5Fclose);
   if (!m.file.ok()) return Fail(path, "cannot open the design file for writing");
   m.iterations = Id(H5Gopen2(m.file, "iterations", H5P_DEFAULT), H5Gclose);
   // The commit marker first, so a crash in between leaves a file that reads as `keep` iterations.
@@ -349,6 +370,9 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
   for (const std::string& name : DesignFileMetricNames()) ok = ok && Truncate(m.iterations, name.c_str(), keep);
   for (const char* name : kArrayNames) ok = ok && Truncate(m.iterations, name, keep);
   if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot truncate the design file");
+  // Files of format_version 1 written before SWMR (superblock < 3) cannot enter SWMR mode; they are
+  // appended to as before.
+  H5Fstart_swmr_write(m.file);
   w->count_ = keep;
   return w;
 }
@@ -400,7 +424,10 @@ Result<DesignFile> ReadDesignFile(const std::string& path, const DesignFileReadO
   // (the writer flushes whole iterations; rows beyond /iterations/iteration are ignored).
   Id fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   H5Pset_file_locking(fapl, false, true);
-  Id file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl), H5Fclose);
+  // SWMR read sees the last flushed iteration of a file being written, or of one whose writer was
+  // killed (a plain open refuses such a file); files written before SWMR open plainly.
+  Id file(H5Fopen(path.c_str(), H5F_ACC_RDONLY | H5F_ACC_SWMR_READ, fapl), H5Fclose);
+  if (!file.ok()) file = Id(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl), H5Fclose);
   if (!file.ok()) return Fail(path, "cannot open the HDF5 file (damaged?)");
   std::string format;
   int version = 0;

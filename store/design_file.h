@@ -64,6 +64,8 @@ class DesignFileWriter {
   // Appends one iteration (its index must be the number stored so far) and flushes it to disk.
   Status Append(const BesoIteration& iteration);
   int num_iterations() const { return count_; }
+  int faces() const;
+  int vertices() const;
 
  private:
   DesignFileWriter() = default;

@@ -6,6 +6,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <csignal>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "core/scene/scene.h"
 
@@ -127,6 +130,52 @@ TEST(DesignFile, ReopenKeepsThePrefixAndResumedRunsMatchUninterruptedOnes) {
     EXPECT_EQ(d->iterations[k].energy_J, f.run[k].energy_J) << "iteration " << k;
   }
   EXPECT_FALSE(DesignFileWriter::Reopen(path, 99).ok());
+  std::filesystem::remove(path);
+}
+
+// SWMR: a writer killed with SIGKILL at any moment leaves a file that reads (every flushed iteration
+// intact, bit for bit) and that a new writer reopens and appends to.
+TEST(DesignFile, AWriterKilledAtAnyMomentLeavesAReadableFile) {
+  const Fixture f = MakeRun(3);
+  const std::string path = TempPath("killed.h5");
+  for (int trial = 0; trial < 6; ++trial) {
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      auto w = DesignFileWriter::Create(path, f.header);
+      if (!w.ok()) _exit(1);
+      std::ofstream(path + ".ready") << "1";
+      for (int k = 0;; ++k) {
+        BesoIteration it = f.run[k % f.run.size()];
+        it.iteration = k;
+        if (!(*w)->Append(it).ok()) _exit(2);
+      }
+    }
+    while (!std::filesystem::exists(path + ".ready")) usleep(1000);
+    usleep(20000 + 37000 * trial);  // different moments of the append cycle
+    kill(child, SIGKILL);
+    int status = 0;
+    waitpid(child, &status, 0);
+    std::filesystem::remove(path + ".ready");
+    ASSERT_TRUE(WIFSIGNALED(status)) << "the writer stopped by itself";
+
+    Result<DesignFile> read = ReadDesignFile(path);
+    ASSERT_TRUE(read.ok()) << "trial " << trial << ": " << read.message();
+    const int n = static_cast<int>(read->iterations.size());
+    EXPECT_GT(n, 0) << "trial " << trial;
+    for (int k = 0; k < n; ++k) {
+      BesoIteration expected = f.run[k % f.run.size()];
+      expected.iteration = k;
+      ExpectSame(read->iterations[k], expected);
+    }
+    auto w = DesignFileWriter::Reopen(path, n);
+    ASSERT_TRUE(w.ok()) << w.message();
+    BesoIteration next = f.run[n % f.run.size()];
+    next.iteration = n;
+    ASSERT_TRUE((*w)->Append(next).ok());
+    w->reset();
+    EXPECT_EQ(ReadDesignFile(path, {.arrays = false})->iterations.size(), static_cast<size_t>(n + 1));
+  }
   std::filesystem::remove(path);
 }
 

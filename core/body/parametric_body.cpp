@@ -1,6 +1,7 @@
 #include "core/body/parametric_body.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <numeric>
 #include <numbers>
@@ -120,6 +121,21 @@ constexpr MeasurementField kMeasurementFields[] = {
 };
 
 }  // namespace
+
+Result<std::optional<BodyMeasurements>> ParseBodyMeasurements(const std::vector<std::string>& items) {
+  if (items.empty()) return std::optional<BodyMeasurements>();
+  BodyMeasurements m;
+  for (const std::string& item : items) {
+    const size_t eq = item.find('=');
+    if (eq == std::string::npos) return Status::Error("--body " + item + ": expected name=value, e.g. upper_arm_circumference_m=0.32");
+    const std::string text = item.substr(eq + 1);
+    char* end = nullptr;
+    const double v = std::strtod(text.c_str(), &end);
+    if (text.empty() || end != text.c_str() + text.size()) return Status::Error("--body " + item + ": '" + text + "' is not a number");
+    if (Status st = SetMeasurement(&m, item.substr(0, eq), v); !st.ok()) return st;
+  }
+  return std::optional<BodyMeasurements>(m);
+}
 
 Status SetMeasurement(BodyMeasurements* m, const std::string& name, double value) {
   std::string known;

@@ -17,6 +17,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,8 @@ Status ValidateMeasurements(const BodyMeasurements& m);
 // Sets one measurement by its field name ("height_m", "upper_arm_circumference_m", ...); unknown names
 // are errors that list the known ones. The value is checked by ValidateMeasurements.
 Status SetMeasurement(BodyMeasurements* m, const std::string& name, double value);
+// `name=value` items (SI, as given to --body) into measurements; none given: no value.
+Result<std::optional<BodyMeasurements>> ParseBodyMeasurements(const std::vector<std::string>& items);
 
 enum Bone : int {
   kPelvis, kLumbar, kThorax, kChest, kNeck, kHead,

@@ -21,7 +21,8 @@ namespace {
 // Typed access to a JSON scene with messages that name the file and the key path.
 class Reader {
  public:
-  Reader(std::string file, fs::path dir) : file_(std::move(file)), dir_(std::move(dir)) {}
+  Reader(std::string file, fs::path dir, std::vector<std::string>* files_read)
+      : file_(std::move(file)), dir_(std::move(dir)), files_read_(files_read) {}
 
   Status Fail(const std::string& key, const std::string& what) const {
     return Status::Error(file_ + ": " + key + ": " + what);
@@ -61,7 +62,10 @@ class Reader {
       if (v.get<std::string>() == o) { *out = o; return Status::Ok(); }
     return Fail(path + "." + key, "'" + v.get<std::string>() + "' is not one of: " + list);
   }
-  std::string Resolve(const std::string& rel) const { return (dir_ / rel).lexically_normal().string(); }
+  std::string Resolve(const std::string& rel) const {
+    if (files_read_) files_read_->push_back(rel);
+    return (dir_ / rel).lexically_normal().string();
+  }
   Result<TriMesh> Mesh(const json& v, const std::string& key) const {
     if (!v.is_string()) return Fail(key, "must be a mesh file path");
     return ReadMesh(Resolve(v.get<std::string>()));
@@ -99,16 +103,12 @@ class Reader {
  private:
   std::string file_;
   fs::path dir_;
+  std::vector<std::string>* files_read_;
 };
-
-#define KGD_RETURN_IF_ERROR(expr)      \
-  do {                                 \
-    if (Status _s = (expr); !_s.ok()) return _s; \
-  } while (0)
 
 }  // namespace
 
-Result<SceneSpec> LoadScene(const std::string& path) {
+Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* files_read) {
   std::ifstream in(path);
   if (!in) return Status::Error(path + ": cannot open scene file");
   json doc;
@@ -117,7 +117,7 @@ Result<SceneSpec> LoadScene(const std::string& path) {
   } catch (const json::parse_error& e) {
     return Status::Error(path + ": not valid JSON at byte " + std::to_string(e.byte) + ": " + e.what());
   }
-  const Reader r(path, fs::path(path).parent_path());
+  const Reader r(path, fs::path(path).parent_path(), files_read);
   SceneSpec s;
   KGD_RETURN_IF_ERROR(r.CheckKeys(doc, "", {"name", "description", "budget", "garment", "materials", "effects", "body",
                                             "contact", "attachments", "clamps", "solver"}));
@@ -692,5 +692,18 @@ Result<SceneSpec> BuiltinScene(const std::string& name) {
   for (const auto& n : BuiltinSceneNames()) list += (list.empty() ? "" : ", ") + n;
   return Status::Error("unknown built-in scene '" + name + "' (built-in scenes: " + list + ")");
 }
+
+Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items) {
+  Result<std::optional<BodyMeasurements>> body = ParseBodyMeasurements(body_items);
+  if (!body.ok()) return body.status();
+  if (std::filesystem::exists(arg)) {
+    if (*body) return Status::Error(arg + ": --body applies to built-in scenes, not to scene files");
+    return LoadScene(arg);
+  }
+  if (arg.find('/') != std::string::npos || (arg.size() > 5 && arg.substr(arg.size() - 5) == ".json"))
+    return Status::Error(arg + ": no such scene file");
+  return *body ? BuiltinScene(arg, **body) : BuiltinScene(arg);
+}
+
 
 }  // namespace kgd

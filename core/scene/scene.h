@@ -87,8 +87,13 @@ Status CutGarmentFromMotion(SceneSpec* spec, const std::string& region_name = "g
 // `start` (e.g. the previous frame's equilibrium moved with the body). Precondition: motion has frames.
 SceneSpec SceneAtFrame(const SceneSpec& spec, int frame, const Positions& start);
 
-// Reads and validates a scene file; errors name the file, the key or the element.
-Result<SceneSpec> LoadScene(const std::string& path);
+// Reads and validates a scene file; errors name the file, the key or the element. `files_read`
+// (optional) receives every file the scene names, as written in it (relative to the scene's folder).
+Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* files_read = nullptr);
+
+// A scene argument: a scene file if it exists, else the name of a built-in scene (on a parametric body
+// made to the `name=value` measurements `body_items`, when given).
+Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items = {});
 
 // Writes `spec` as DIR/scene.json plus meshes (OBJ) and index lists; creates DIR if needed.
 Status ExportScene(const SceneSpec& spec, const std::string& dir);

@@ -57,3 +57,9 @@ class Result {
 };
 
 }  // namespace kgd
+
+// Returns the Status of `expr` from the enclosing function when it is an error.
+#define KGD_RETURN_IF_ERROR(expr)                         \
+  do {                                                    \
+    if (::kgd::Status _s = (expr); !_s.ok()) return _s;   \
+  } while (0)

@@ -1,0 +1,196 @@
+// The design service's costs, measured with real processes on loopback (a kgd-server, one kgd-worker):
+//   latency   worker finishes an iteration -> a watcher receives it (p50, p99), with 1 and with 100
+//             watchers of the job, and what 100 watchers cost the worker (mean seconds per iteration)
+//   overhead  arm flexion (N iterations) through server + worker vs `kgd design` locally, wall time
+// Usage: service_benchmark [latency|overhead|all] [--scene S --iterations N --watchers W (latency; sleeve_on_limb, 150, 100)]
+//                          [--arm-iterations N (overhead)] [--repeat R (overhead)]
+// Figures go to docs/PERFORMANCE.md with the command, the machine and the date.
+#include <arpa/inet.h>
+#include <grpcpp/grpcpp.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "kgd/v1/kgd.grpc.pb.h"
+#include "tests/child_process.h"
+
+namespace {
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double UnixNow() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
+
+pid_t Spawn(const std::vector<std::string>& args, const std::string& log) {
+  kgd::test_support::Process p = kgd::test_support::Process::Spawn(args, log);
+  return std::exchange(p.pid, -1);  // this benchmark stops its processes itself
+}
+
+using kgd::test_support::FreePort;
+
+struct Service {
+  std::string dir, address;
+  pid_t server = -1, worker = -1;
+  std::unique_ptr<kgd::v1::DesignService::Stub> stub;
+  explicit Service(const std::string& name) {
+    dir = (fs::temp_directory_path() / ("kgd_service_benchmark_" + name)).string();
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    address = "127.0.0.1:" + std::to_string(FreePort());
+    server = Spawn({KGD_SERVER_BINARY, "--data", dir + "/data", "--listen", address, "--quiet"}, dir + "/server.log");
+    worker = Spawn({KGD_WORKER_BINARY, "--server", address, "--quiet"}, dir + "/worker.log");
+    stub = kgd::v1::DesignService::NewStub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+  }
+  ~Service() {
+    for (pid_t p : {worker, server}) {
+      kill(p, SIGTERM);
+      waitpid(p, nullptr, 0);
+    }
+  }
+  int64_t Submit(const std::string& scene, int iterations) {
+    kgd::v1::CreateJobRequest req;
+    req.mutable_spec()->set_builtin_scene(scene);
+    req.mutable_spec()->mutable_optimizer()->set_max_iterations(iterations);
+    for (int attempt = 0; attempt < 100; ++attempt) {
+      grpc::ClientContext ctx;
+      ctx.set_wait_for_ready(true);
+      ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+      kgd::v1::Job job;
+      if (stub->CreateJob(&ctx, req, &job).ok()) return job.id();
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    std::fprintf(stderr, "service_benchmark: cannot submit to %s\n", address.c_str());
+    std::exit(1);
+  }
+  kgd::v1::Job Get(int64_t id) {
+    grpc::ClientContext ctx;
+    kgd::v1::GetJobRequest req;
+    req.set_id(id);
+    kgd::v1::Job job;
+    stub->GetJob(&ctx, req, &job);
+    return job;
+  }
+  void WaitDone(int64_t id) {
+    for (;;) {
+      const kgd::v1::JobState s = Get(id).state();
+      if (s == kgd::v1::SUCCEEDED || s == kgd::v1::FAILED || s == kgd::v1::CANCELLED) return;
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  }
+};
+
+double Percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(p * (v.size() - 1) + 0.5))];
+}
+
+// One job of `iterations` sleeve iterations watched by `watchers` clients (spread over 10 connections).
+void LatencyRun(const std::string& scene, int watchers, int iterations) {
+  Service service("latency_" + std::to_string(watchers));
+  std::vector<std::shared_ptr<grpc::Channel>> channels;
+  for (int c = 0; c < std::min(watchers, 10); ++c) {
+    grpc::ChannelArguments args;
+    args.SetInt("kgd.benchmark.connection", c);  // distinct arguments: distinct connections
+    channels.push_back(grpc::CreateCustomChannel(service.address, grpc::InsecureChannelCredentials(), args));
+  }
+  const int64_t id = service.Submit(scene, iterations);
+  std::mutex mu;
+  std::vector<double> latency_ms;
+  std::vector<double> iteration_s;
+  std::vector<std::thread> threads;
+  std::atomic<int> received{0};
+  for (int w = 0; w < watchers; ++w) {
+    threads.emplace_back([&, w] {
+      auto stub = kgd::v1::DesignService::NewStub(channels[w % channels.size()]);
+      grpc::ClientContext ctx;
+      kgd::v1::WatchJobRequest req;
+      req.set_id(id);
+      auto reader = stub->WatchJob(&ctx, req);
+      kgd::v1::WatchJobEvent ev;
+      std::vector<double> mine, seconds;
+      while (reader->Read(&ev)) {
+        if (!ev.has_iteration()) continue;
+        const double now = UnixNow();
+        const auto& m = ev.iteration().metrics();
+        // Live iterations only (replayed ones were reported before this watcher connected).
+        if (m.iteration() > 1) mine.push_back(1e3 * (now - m.report_time_s()));
+        if (w == 0 && m.iteration() > 0) seconds.push_back(m.total_s());
+        ++received;
+      }
+      reader->Finish();
+      std::lock_guard lock(mu);
+      latency_ms.insert(latency_ms.end(), mine.begin(), mine.end());
+      iteration_s.insert(iteration_s.end(), seconds.begin(), seconds.end());
+    });
+  }
+  for (std::thread& t : threads) t.join();
+  service.WaitDone(id);
+  double mean = 0;
+  for (double s : iteration_s) mean += s;
+  mean /= std::max<size_t>(1, iteration_s.size());
+  std::printf("latency  %s  watchers %3d  iterations %4zu  deliveries %6zu  p50 %7.2f ms  p99 %7.2f ms  max %7.2f ms  worker %.4f s/iteration\n",
+              scene.c_str(), watchers, iteration_s.size() + 1, latency_ms.size(), Percentile(latency_ms, 0.5), Percentile(latency_ms, 0.99),
+              Percentile(latency_ms, 1.0), mean);
+  std::fflush(stdout);
+}
+
+// Local and service runs alternate `repeat` times; the fastest of each counts (this machine's timings
+// vary by 20 % from run to run).
+void OverheadRun(int iterations, int repeat) {
+  const std::string dir = (fs::temp_directory_path() / "kgd_service_benchmark_local").string();
+  fs::create_directories(dir);
+  const std::string cmd = std::string(KGD_BINARY) + " design arm_flexion --json --iterations " + std::to_string(iterations) + " --out " + dir +
+                          "/arm.h5 > " + dir + "/local.log 2>&1";
+  Service service("overhead");
+  service.WaitDone(service.Submit("sleeve_on_limb", 1));  // the worker is connected and warm
+  double local = 1e30, remote = 1e30;
+  for (int r = 0; r < repeat; ++r) {
+    auto t0 = Clock::now();
+    if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "service_benchmark: local run failed (%s/local.log)\n", dir.c_str());
+    local = std::min(local, std::chrono::duration<double>(Clock::now() - t0).count());
+    t0 = Clock::now();
+    service.WaitDone(service.Submit("arm_flexion", iterations));
+    remote = std::min(remote, std::chrono::duration<double>(Clock::now() - t0).count());
+  }
+  std::printf("overhead arm_flexion %d iterations, best of %d: kgd design %.2f s, server + worker %.2f s (%+.1f %%)\n", iterations + 1, repeat,
+              local, remote, 100 * (remote / local - 1));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string what = "all", scene = "sleeve_on_limb";
+  int iterations = 150, arm_iterations = 20, watchers = 100, repeat = 3;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--iterations" && i + 1 < argc) iterations = std::atoi(argv[++i]);
+    else if (a == "--arm-iterations" && i + 1 < argc) arm_iterations = std::atoi(argv[++i]);
+    else if (a == "--watchers" && i + 1 < argc) watchers = std::atoi(argv[++i]);
+    else if (a == "--repeat" && i + 1 < argc) repeat = std::atoi(argv[++i]);
+    else if (a == "--scene" && i + 1 < argc) scene = argv[++i];
+    else if (a == "latency" || a == "overhead" || a == "all") what = a;
+    else {
+      std::fprintf(stderr, "usage: service_benchmark [latency|overhead|all] [--iterations N] [--watchers W] [--scene S] [--arm-iterations N] [--repeat R]\n");
+      return 2;
+    }
+  }
+  if (what != "overhead") {
+    LatencyRun(scene, 1, iterations);
+    LatencyRun(scene, watchers, iterations);
+  }
+  if (what != "latency") OverheadRun(arm_iterations, repeat);
+  return 0;
+}

@@ -1,0 +1,483 @@
+#include "client/service_commands.h"
+
+#include <grpcpp/grpcpp.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "client/optimizer_flags.h"
+#include "core/mesh/mesh_io.h"
+#include "core/util/termination.h"
+#include "kgd/v1/kgd.grpc.pb.h"
+#include "proto/job_spec.h"
+#include "proto/records.h"
+#include "server/design_server.h"
+#include "worker/design_worker.h"
+
+namespace kgd::cli {
+namespace {
+
+std::string DefaultServer() {
+  const char* env = std::getenv("KGD_SERVER");
+  return env && *env ? env : "127.0.0.1:7447";
+}
+
+std::unique_ptr<v1::DesignService::Stub> Connect(const std::string& server) {
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(256 << 20);
+  args.SetMaxSendMessageSize(256 << 20);
+  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 1000);
+  return v1::DesignService::NewStub(grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args));
+}
+
+// gRPC errors as exit codes: unknown job and bad requests are the user's (2), the rest the server's (1).
+int FailRpc(const char* command, const std::string& server, const grpc::Status& st) {
+  const bool users = st.error_code() == grpc::StatusCode::NOT_FOUND || st.error_code() == grpc::StatusCode::INVALID_ARGUMENT ||
+                     st.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED;
+  if (st.error_code() == grpc::StatusCode::UNAVAILABLE || st.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED)
+    std::fprintf(stderr, "kgd %s: cannot reach the design server at %s (%s); start one with `kgd serve --data DIR` or set --server\n",
+                 command, server.c_str(), st.error_message().c_str());
+  else
+    std::fprintf(stderr, "kgd %s: %s\n", command, st.error_message().c_str());
+  return users ? 2 : 1;
+}
+
+void SetDeadline(grpc::ClientContext* ctx, double seconds) {
+  ctx->set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000)));
+}
+
+std::string StateName(v1::JobState s) { return v1::JobState_Name(s); }
+
+nlohmann::ordered_json MetricsJson(const v1::IterationMetrics& m) {
+  nlohmann::ordered_json j;
+  j["iteration"] = m.iteration();
+  j["area_fraction"] = m.area_fraction();
+  j["target_area_m2"] = m.target_area_m2();
+  j["energy_J"] = m.energy_j();
+  j["reinforced_energy_J"] = m.reinforced_energy_j();
+  j["reinforced_density_J_per_m2"] = m.reinforced_density_j_per_m2();
+  j["density_ratio"] = m.density_ratio();
+  j["status"] = m.solve_status();
+  j["solver_iterations"] = m.solver_iterations();
+  j["cold_restart"] = m.cold_restart();
+  j["simulation_s"] = m.simulation_s();
+  j["total_s"] = m.total_s();
+  return j;
+}
+
+nlohmann::ordered_json JobJson(const v1::Job& job) {
+  nlohmann::ordered_json j;
+  j["id"] = job.id();
+  j["scene"] = JobSceneName(job.spec());
+  j["label"] = job.spec().label();
+  j["state"] = StateName(job.state());
+  j["iterations"] = job.iterations();
+  j["attempts"] = job.attempts();
+  j["create_time_s"] = job.create_time_s();
+  j["update_time_s"] = job.update_time_s();
+  if (job.iterations() > 0) j["last"] = MetricsJson(job.last());
+  if (!job.failure().empty()) j["failure"] = job.failure();
+  if (!job.worker().empty()) j["worker"] = job.worker();
+  if (job.cancel_requested()) j["cancel_requested"] = true;
+  if (!job.data_file().empty()) j["data_file"] = job.data_file();
+  return j;
+}
+
+std::atomic<bool> g_interrupted{false};
+extern "C" void OnWatchInterrupt(int) { g_interrupted = true; }
+
+// ---------------------------------------------------------------------------------------------------
+
+struct WatchOptions {
+  std::string server = DefaultServer();
+  int64_t job = 0;
+  int from = 0;
+  bool json = false;
+  double retry_s = 60;
+};
+
+int ExitForState(v1::JobState s) { return s == v1::SUCCEEDED ? 0 : s == v1::FAILED ? 3 : 4; }
+
+bool Terminal(v1::JobState s) { return s == v1::SUCCEEDED || s == v1::FAILED || s == v1::CANCELLED; }
+
+void PrintSummary(const v1::Job& job) {
+  std::printf("job %lld %s after %d iterations", static_cast<long long>(job.id()), StateName(job.state()).c_str(), job.iterations());
+  if (job.iterations() > 0)
+    std::printf(": area %.1f%%, reinforced energy density %.4g J/m^2 = %.3f x fully reinforced", 100 * job.last().area_fraction(),
+                job.last().reinforced_density_j_per_m2(), job.last().density_ratio());
+  std::printf("\n");
+  if (!job.failure().empty()) std::printf("failure: %s\n", job.failure().c_str());
+  if (!job.data_file().empty()) std::printf("design history: %s (on the server; kgd get %lld --out design.ply)\n", job.data_file().c_str(),
+                                            static_cast<long long>(job.id()));
+}
+
+// Follows a job to its end; after a dropped stream it reconnects from the next iteration it lacks.
+int RunWatch(const WatchOptions& o) {
+  auto stub = Connect(o.server);
+  const bool bar = !o.json && isatty(STDOUT_FILENO);
+  int next = o.from;
+  v1::Job job;
+  bool have_job = false;
+  auto last_contact = std::chrono::steady_clock::now();
+  g_interrupted = false;
+  std::signal(SIGINT, OnWatchInterrupt);
+  int result = 130;
+  while (!g_interrupted) {
+    grpc::ClientContext ctx;
+    v1::WatchJobRequest req;
+    req.set_id(o.job);
+    req.set_from_iteration(next);
+    std::atomic<bool> reading{true};
+    // Ctrl-C while blocked in Read: cancel the call from beside it.
+    std::thread canceller([&] {
+      while (reading && !g_interrupted) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      if (g_interrupted) ctx.TryCancel();
+    });
+    auto reader = stub->WatchJob(&ctx, req);
+    v1::WatchJobEvent ev;
+    bool out_of_order = false;
+    while (reader->Read(&ev)) {
+      last_contact = std::chrono::steady_clock::now();
+      if (ev.has_job()) {
+        const bool changed = !have_job || ev.job().state() != job.state();
+        job = ev.job();
+        have_job = true;
+        if (changed && !bar) {
+          nlohmann::ordered_json j{{"event", "state"}, {"job", job.id()}, {"state", StateName(job.state())}};
+          if (!job.failure().empty()) j["failure"] = job.failure();
+          std::printf("%s\n", j.dump().c_str());
+        }
+      } else if (ev.has_iteration()) {
+        const v1::IterationMetrics& m = ev.iteration().metrics();
+        if (m.iteration() != next) {
+          std::fprintf(stderr, "kgd watch: the stream sent iteration %d where %d was due\n", m.iteration(), next);
+          out_of_order = true;
+          ctx.TryCancel();
+          break;
+        }
+        ++next;
+        if (bar) {
+          std::printf("\rjob %lld  it %3d  area %5.1f%%  ratio %.3f  %.2f s/it   ", static_cast<long long>(job.id()), m.iteration(),
+                      100 * m.area_fraction(), m.density_ratio(), m.total_s());
+        } else {
+          nlohmann::ordered_json j{{"event", "iteration"}, {"job", job.id()}};
+          j.update(MetricsJson(m));
+          j["reinforced_faces"] = std::count(ev.iteration().design().begin(), ev.iteration().design().end(), '\1');
+          std::printf("%s\n", j.dump().c_str());
+        }
+      }
+      std::fflush(stdout);
+    }
+    const grpc::Status st = reader->Finish();
+    reading = false;
+    canceller.join();
+    if (out_of_order) return 1;
+    if (g_interrupted) break;
+    if (st.ok() && have_job && Terminal(job.state())) {
+      if (bar) {
+        std::printf("\n");
+        PrintSummary(job);
+      }
+      result = ExitForState(job.state());
+      break;
+    }
+    if (st.error_code() == grpc::StatusCode::NOT_FOUND || st.error_code() == grpc::StatusCode::INVALID_ARGUMENT)
+      return FailRpc("watch", o.server, st);
+    if (std::chrono::steady_clock::now() - last_contact > std::chrono::duration<double>(o.retry_s)) return FailRpc("watch", o.server, st);
+    // Dropped (server restarting, network): reconnect and continue after the last iteration received.
+    if (bar) std::printf("\r(reconnecting to %s ...)%-30s", o.server.c_str(), "");
+    std::fflush(stdout);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
+  std::signal(SIGINT, SIG_DFL);
+  if (result == 130) {
+    if (bar) std::printf("\n");
+    std::fprintf(stderr, "kgd watch: stopped watching (the job goes on); continue with: kgd watch %lld --from %d\n",
+                 static_cast<long long>(o.job), next);
+  }
+  return result;
+}
+
+// ---------------------------------------------------------------------------------------------------
+
+struct SubmitOptions {
+  std::string server = DefaultServer();
+  std::string scene, label;
+  std::vector<std::string> body;
+  OptimizerFlags optimizer;
+  bool watch = false, json = false;
+};
+
+int RunSubmit(const SubmitOptions& o) {
+  v1::CreateJobRequest req;
+  v1::JobSpec& spec = *req.mutable_spec();
+  if (std::filesystem::exists(o.scene)) {
+    Result<v1::SceneFiles> files = ReadSceneFiles(o.scene);
+    if (!files.ok()) {
+      std::fprintf(stderr, "kgd submit: %s\n", files.message().c_str());
+      return 2;
+    }
+    *spec.mutable_scene_files() = std::move(files).value();
+  } else {
+    spec.set_builtin_scene(o.scene);
+  }
+  for (const std::string& b : o.body) spec.add_body(b);
+  *spec.mutable_optimizer() = ToProto(o.optimizer);
+  spec.set_label(o.label);
+  if (Status st = ValidateJobSpec(spec); !st.ok()) {  // the server checks too; this saves a round trip
+    std::fprintf(stderr, "kgd submit: %s\n", st.message().c_str());
+    return 2;
+  }
+  auto stub = Connect(o.server);
+  grpc::ClientContext ctx;
+  SetDeadline(&ctx, 30);
+  v1::Job job;
+  const grpc::Status st = stub->CreateJob(&ctx, req, &job);
+  if (!st.ok()) return FailRpc("submit", o.server, st);
+  if (o.json) std::printf("%s\n", JobJson(job).dump().c_str());
+  else std::printf("job %lld queued (%s)\n", static_cast<long long>(job.id()), JobSceneName(spec).c_str());
+  std::fflush(stdout);
+  if (!o.watch) return 0;
+  WatchOptions w;
+  w.server = o.server;
+  w.job = job.id();
+  w.json = o.json;
+  return RunWatch(w);
+}
+
+int RunJobs(const std::string& server, const std::string& state, int limit, bool json) {
+  v1::ListJobsRequest req;
+  if (!state.empty()) {
+    v1::JobState s;
+    std::string upper = state;
+    for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    if (!v1::JobState_Parse(upper, &s) || s == v1::JOB_STATE_UNSPECIFIED) {
+      std::fprintf(stderr, "kgd jobs: --state %s: not one of queued, running, succeeded, failed, cancelled\n", state.c_str());
+      return 2;
+    }
+    req.set_state_filter(s);
+  }
+  auto stub = Connect(server);
+  std::vector<v1::Job> jobs;
+  for (;;) {
+    req.set_page_size(std::min(limit - static_cast<int>(jobs.size()), 1000));
+    grpc::ClientContext ctx;
+    SetDeadline(&ctx, 30);
+    v1::ListJobsResponse page;
+    const grpc::Status st = stub->ListJobs(&ctx, req, &page);
+    if (!st.ok()) return FailRpc("jobs", server, st);
+    for (const v1::Job& j : page.jobs()) jobs.push_back(j);
+    if (page.next_page_token().empty() || static_cast<int>(jobs.size()) >= limit) break;
+    req.set_page_token(page.next_page_token());
+  }
+  if (json) {
+    nlohmann::ordered_json all = nlohmann::ordered_json::array();
+    for (const v1::Job& j : jobs) all.push_back(JobJson(j));
+    std::printf("%s\n", all.dump().c_str());
+    return 0;
+  }
+  std::printf("%6s  %-10s  %-22s  %5s  %7s  %7s  %s\n", "id", "state", "scene", "iters", "area_%", "ratio", "label");
+  for (const v1::Job& j : jobs) {
+    std::printf("%6lld  %-10s  %-22s  %5d  ", static_cast<long long>(j.id()), StateName(j.state()).c_str(), JobSceneName(j.spec()).c_str(),
+                j.iterations());
+    if (j.iterations() > 0) std::printf("%7.1f  %7.3f  ", 100 * j.last().area_fraction(), j.last().density_ratio());
+    else std::printf("%7s  %7s  ", "-", "-");
+    std::printf("%s\n", j.spec().label().c_str());
+  }
+  return 0;
+}
+
+int RunJob(const std::string& server, int64_t id, bool json) {
+  auto stub = Connect(server);
+  grpc::ClientContext ctx;
+  SetDeadline(&ctx, 30);
+  v1::GetJobRequest req;
+  req.set_id(id);
+  v1::Job job;
+  const grpc::Status st = stub->GetJob(&ctx, req, &job);
+  if (!st.ok()) return FailRpc("job", server, st);
+  if (json) {
+    std::printf("%s\n", JobJson(job).dump().c_str());
+    return 0;
+  }
+  std::printf("job %lld: %s, scene %s%s%s\n", static_cast<long long>(job.id()), StateName(job.state()).c_str(), JobSceneName(job.spec()).c_str(),
+              job.spec().label().empty() ? "" : ", label ", job.spec().label().c_str());
+  std::printf("attempts %d%s%s\n", job.attempts(), job.worker().empty() ? "" : ", worker ", job.worker().c_str());
+  PrintSummary(job);
+  return 0;
+}
+
+int RunCancel(const std::string& server, int64_t id) {
+  auto stub = Connect(server);
+  grpc::ClientContext ctx;
+  SetDeadline(&ctx, 30);
+  v1::CancelJobRequest req;
+  req.set_id(id);
+  v1::Job job;
+  const grpc::Status st = stub->CancelJob(&ctx, req, &job);
+  if (!st.ok()) return FailRpc("cancel", server, st);
+  if (job.state() == v1::RUNNING) std::printf("job %lld: cancel requested; it stops after its current iteration\n", static_cast<long long>(id));
+  else std::printf("job %lld: %s\n", static_cast<long long>(id), StateName(job.state()).c_str());
+  return 0;
+}
+
+int RunGet(const std::string& server, int64_t id, int iteration, const std::string& out, bool json) {
+  auto stub = Connect(server);
+  grpc::ClientContext ctx;
+  SetDeadline(&ctx, 60);
+  v1::GetIterationRequest req;
+  req.set_id(id);
+  req.set_iteration(iteration);
+  req.set_with_garment(!out.empty());
+  v1::GetIterationResponse resp;
+  const grpc::Status st = stub->GetIteration(&ctx, req, &resp);
+  if (!st.ok()) return FailRpc("get", server, st);
+  if (!out.empty()) {
+    DesignFileHeader h;
+    if (Status g = GarmentFromProto(resp.garment(), &h); !g.ok()) {
+      std::fprintf(stderr, "kgd get: the server sent a bad garment: %s\n", g.message().c_str());
+      return 1;
+    }
+    Result<BesoIteration> it = RecordFromProto(resp.record(), static_cast<int>(h.garment.faces.rows()), static_cast<int>(h.garment.vertices.rows()));
+    if (!it.ok()) {
+      std::fprintf(stderr, "kgd get: the server sent a bad iteration: %s\n", it.message().c_str());
+      return 1;
+    }
+    Eigen::VectorXd design(it->design.size());
+    for (size_t f = 0; f < it->design.size(); ++f) design[f] = it->design[f];
+    if (Status w = WritePly(out, it->positions, h.garment.faces, {{"design", design, true}, {"energy_density_Pa", it->energy_density_Pa, false}});
+        !w.ok()) {
+      std::fprintf(stderr, "kgd get: %s\n", w.message().c_str());
+      return 2;
+    }
+  }
+  const v1::IterationMetrics& m = resp.record().metrics();
+  if (json) {
+    nlohmann::ordered_json j = MetricsJson(m);
+    j["job"] = id;
+    if (!out.empty()) j["file"] = out;
+    std::printf("%s\n", j.dump().c_str());
+  } else {
+    std::printf("job %lld iteration %d: area %.2f%%, energy %.6g J, reinforced density %.6g J/m^2, ratio %.4f%s%s\n",
+                static_cast<long long>(id), m.iteration(), 100 * m.area_fraction(), m.energy_j(), m.reinforced_density_j_per_m2(),
+                m.density_ratio(), out.empty() ? "" : "; wrote ", out.c_str());
+  }
+  return 0;
+}
+
+struct ServeOptions {
+  server::ServerOptions server;
+  int workers = 1;
+  int jobs_per_worker = 1;
+};
+
+int RunServe(ServeOptions o) {
+  BlockTerminationSignals();
+  auto server = server::DesignServer::Start(o.server);
+  if (!server.ok()) {
+    std::fprintf(stderr, "kgd serve: %s\n", server.message().c_str());
+    return 1;
+  }
+  std::vector<std::unique_ptr<worker::DesignWorker>> workers;
+  for (int i = 0; i < o.workers; ++i) {
+    worker::WorkerOptions wo;
+    wo.server = (*server)->address();
+    wo.jobs = o.jobs_per_worker;
+    wo.quiet = o.server.quiet;
+    wo.name = "serve-" + std::to_string(getpid()) + "-" + std::to_string(i);
+    auto w = worker::DesignWorker::Start(wo);
+    if (!w.ok()) {
+      std::fprintf(stderr, "kgd serve: %s\n", w.message().c_str());
+      return 2;
+    }
+    workers.push_back(std::move(w).value());
+  }
+  std::printf("listening on %s; data in %s; %d in-process worker%s\n", (*server)->address().c_str(), o.server.data_dir.c_str(), o.workers,
+              o.workers == 1 ? "" : "s");
+  std::fflush(stdout);
+  WaitForTerminationSignal();
+  (*server)->Drain();
+  for (auto& w : workers) w->Stop();
+  for (auto& w : workers) w->Wait();
+  (*server)->Shutdown();
+  return 0;
+}
+
+}  // namespace
+
+void AddServiceCommands(CLI::App& app, int* exit_code) {
+  auto serve = std::make_shared<ServeOptions>();
+  CLI::App* sv = app.add_subcommand("serve", "Run the design service with in-process workers on a data folder (Ctrl-C drains and stops)");
+  sv->add_option("--data", serve->server.data_dir, "Data folder: kgd.sqlite and jobs/job-N.h5 (created if missing)")->required();
+  sv->add_option("--listen", serve->server.address, "host:port to listen on (port 0: any free port)")->capture_default_str();
+  sv->add_option("--workers", serve->workers, "In-process workers (0: only external kgd-worker processes)")->check(CLI::NonNegativeNumber)->capture_default_str();
+  sv->add_option("--lease-s", serve->server.lease_duration_s, "Seconds without a heartbeat after which a job is queued again")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  sv->add_option("--max-attempts", serve->server.max_attempts, "Leases a job gets before it fails")->check(CLI::PositiveNumber)->capture_default_str();
+  sv->add_flag("--quiet", serve->server.quiet, "No log lines");
+  sv->callback([serve, exit_code] { *exit_code = RunServe(*serve); });
+
+  auto submit = std::make_shared<SubmitOptions>();
+  CLI::App* sb = app.add_subcommand("submit", "Queue a design job on the design service");
+  sb->add_option("scene", submit->scene, "Scene file (JSON; sent with the files it names) or a built-in scene name")->required();
+  sb->add_option("--body", submit->body, "A measurement of the parametric body, name=value in SI (repeatable)");
+  sb->add_option("--label", submit->label, "Free text shown in listings");
+  sb->add_option("--server", submit->server, "The design server, host:port")->capture_default_str();
+  sb->add_flag("--watch", submit->watch, "Then follow the job as `kgd watch` does");
+  sb->add_flag("--json", submit->json, "Print JSON (the job; with --watch, one line per event)");
+  AddOptimizerFlags(sb, &submit->optimizer);
+  sb->callback([submit, exit_code] { *exit_code = RunSubmit(*submit); });
+
+  auto watch = std::make_shared<WatchOptions>();
+  CLI::App* wt = app.add_subcommand("watch", "Follow a job live: a progress bar on a terminal, JSON lines otherwise; reconnects when dropped");
+  wt->add_option("job", watch->job, "Job id")->required();
+  wt->add_option("--from", watch->from, "Replay stored iterations from this one")->check(CLI::NonNegativeNumber);
+  wt->add_option("--server", watch->server, "The design server, host:port")->capture_default_str();
+  wt->add_option("--retry-s", watch->retry_s, "Give up after this long without reaching the server")->capture_default_str();
+  wt->add_flag("--json", watch->json, "One JSON line per event");
+  wt->callback([watch, exit_code] { *exit_code = RunWatch(*watch); });
+
+  struct Common {
+    std::string server = DefaultServer();
+    int64_t job = 0;
+    bool json = false;
+    std::string state, out;
+    int limit = 50, iteration = -1;
+  };
+  auto c = std::make_shared<Common>();
+  CLI::App* js = app.add_subcommand("jobs", "List jobs, newest first");
+  js->add_option("--state", c->state, "Only jobs in this state (queued, running, succeeded, failed, cancelled)");
+  js->add_option("--limit", c->limit, "At most this many")->check(CLI::PositiveNumber)->capture_default_str();
+  js->add_option("--server", c->server, "The design server, host:port")->capture_default_str();
+  js->add_flag("--json", c->json, "Print as a JSON array");
+  js->callback([c, exit_code] { *exit_code = RunJobs(c->server, c->state, c->limit, c->json); });
+
+  CLI::App* jb = app.add_subcommand("job", "Show one job");
+  jb->add_option("job", c->job, "Job id")->required();
+  jb->add_option("--server", c->server, "The design server, host:port")->capture_default_str();
+  jb->add_flag("--json", c->json, "Print as JSON");
+  jb->callback([c, exit_code] { *exit_code = RunJob(c->server, c->job, c->json); });
+
+  CLI::App* cn = app.add_subcommand("cancel", "Cancel a job (a running one stops after its current iteration)");
+  cn->add_option("job", c->job, "Job id")->required();
+  cn->add_option("--server", c->server, "The design server, host:port")->capture_default_str();
+  cn->callback([c, exit_code] { *exit_code = RunCancel(c->server, c->job); });
+
+  CLI::App* gt = app.add_subcommand("get", "Fetch one stored iteration of a job: metrics, and with --out its design on the garment as PLY");
+  gt->add_option("job", c->job, "Job id")->required();
+  gt->add_option("--iteration", c->iteration, "Which iteration (default: the last stored)");
+  gt->add_option("--out", c->out, "Write the equilibrium garment as PLY with per-face design and energy_density_Pa");
+  gt->add_option("--server", c->server, "The design server, host:port")->capture_default_str();
+  gt->add_flag("--json", c->json, "Print the metrics as JSON");
+  gt->callback([c, exit_code] { *exit_code = RunGet(c->server, c->job, c->iteration, c->out, c->json); });
+}
+
+}  // namespace kgd::cli

@@ -1,0 +1,39 @@
+// Job specs (kgd.v1.JobSpec) into what the design engine runs: the scene, the BESO settings and the
+// solver overrides. `kgd design` (local), `kgd submit`, the server's validation and the workers all
+// go through these functions, so one spec gives one design wherever it runs.
+#pragma once
+
+#include <string>
+
+#include "core/beso/beso.h"
+#include "core/scene/scene.h"
+#include "core/util/status.h"
+#include "kgd/v1/kgd.pb.h"
+
+namespace kgd {
+
+// Checks a spec without building its scene (the server's CreateJob): a scene is given, a built-in
+// name is known, body overrides parse, scene files are JSON and name no path outside their folder,
+// optimizer settings are in range. The message starts with the field's name, e.g.
+// "spec.optimizer.budget: 1.5 is outside (0, 1]".
+Status ValidateJobSpec(const v1::JobSpec& spec);
+
+// The BESO settings of a spec for a scene whose own budget is `scene_budget` (1: none): unset fields
+// take the defaults, the budget the scene's. Errors name the field (as ValidateJobSpec).
+Result<BesoSettings> SettingsOfJob(const v1::OptimizerSettings& optimizer, double scene_budget);
+
+// Solver overrides of a spec (Newton iteration limit, gradient tolerance) applied to `solver`.
+void ApplySolverOverrides(const v1::OptimizerSettings& optimizer, SolverSettings* solver);
+
+// The scene of a spec: a built-in scene (with body overrides), or the scene files written to a fresh
+// temporary folder, loaded, and removed again.
+Result<SceneSpec> SceneOfJob(const v1::JobSpec& spec);
+
+// A scene file and every file it names, read for sending (`kgd submit scene.json`). The scene is
+// loaded once to check it and to learn which files it names.
+Result<v1::SceneFiles> ReadSceneFiles(const std::string& scene_path);
+
+// A one-line name of a spec for listings: the built-in name or the scene file's "name".
+std::string JobSceneName(const v1::JobSpec& spec);
+
+}  // namespace kgd

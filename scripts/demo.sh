@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# The main job on the embedded default: `kgd serve` (server + one in-process worker, SQLite and HDF5 in
+# BUILD/demo-data), the built-in arm-flexion design job submitted and watched through the CLI, its final
+# design fetched as PLY. About three minutes on two cores.
+set -euo pipefail
+BUILD=${1:-build}
+KGD=$BUILD/client/kgd
+DATA=$BUILD/demo-data
+LOG=$BUILD/demo-serve.log
+
+"$KGD" serve --data "$DATA" --listen 127.0.0.1:0 --workers 1 > "$LOG.out" 2> "$LOG" &
+SERVE=$!
+trap 'kill -TERM $SERVE 2>/dev/null; wait $SERVE 2>/dev/null || true' EXIT
+for _ in $(seq 100); do
+  grep -q "listening on" "$LOG.out" 2>/dev/null && break
+  sleep 0.1
+done
+ADDR=$(sed -n 's/^listening on \([^;]*\);.*/\1/p' "$LOG.out")
+[ -n "$ADDR" ] || { echo "demo: kgd serve did not start:"; cat "$LOG"; exit 1; }
+echo "demo: design service on $ADDR, data in $DATA (server log: $LOG)"
+
+JOB=$("$KGD" submit arm_flexion --label demo --server "$ADDR" --json | sed -n 's/^{"id":\([0-9]*\),.*/\1/p')
+echo "demo: submitted job $JOB (built-in arm flexion: sleeve over the elbow, 15 -> 100 degrees, budget 15 %)"
+"$KGD" watch "$JOB" --server "$ADDR"
+"$KGD" get "$JOB" --out "$BUILD/arm_flexion_design.ply" --server "$ADDR"
+"$KGD" job "$JOB" --server "$ADDR" | tail -n 2
+echo "demo: final design on the garment: $BUILD/arm_flexion_design.ply (per-face 'design' and 'energy_density_Pa')"
+echo "demo: whole history: $DATA/jobs/job-$JOB.h5 (kgd designs FILE prints it; kgd serve --data $DATA serves it again)"

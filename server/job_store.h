@@ -1,0 +1,100 @@
+// The job store: the service's queue and all its state in one SQLite database (WAL mode).
+//
+// Tables (schema version in PRAGMA user_version; Open migrates older databases and refuses newer):
+//   jobs        one row per job: spec (kgd.v1.JobSpec), state, attempts, the lease (id, worker,
+//               expiry), the number of stored iterations, failure reason, cancel request
+//   iterations  one row per (job, iteration): every IterationMetrics field as a column of the same
+//               name, and the design (one byte per face)
+// An iteration row is the acknowledgement: the server inserts it after the job's HDF5 file holds the
+// iteration, and a job's rows are always 0..iterations-1.
+//
+// Thread-safe: one connection behind a mutex. Times are Unix seconds.
+#pragma once
+
+#include <sqlite3.h>
+
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/util/status.h"
+#include "kgd/v1/kgd.pb.h"
+
+namespace kgd::server {
+
+inline constexpr int kSchemaVersion = 1;
+
+struct Lease {
+  std::string lease_id;
+  int64_t job_id = 0;
+  v1::JobSpec spec;
+  int attempt = 0;
+  int iterations = 0;  // stored so far: the job resumes after iteration iterations-1
+};
+
+// What became of a job whose lease ended without the worker finishing it.
+enum class Requeue { kQueued, kFailed };
+
+class JobStore {
+ public:
+  // Opens (creating if needed) the database at `path`, in WAL mode, migrated to kSchemaVersion.
+  static Result<std::unique_ptr<JobStore>> Open(const std::string& path);
+  ~JobStore();
+
+  Result<int64_t> CreateJob(const v1::JobSpec& spec, int max_attempts, double now);
+  // The job as clients see it (spec, state, counts, last metrics); nullopt when there is none.
+  Result<std::optional<v1::Job>> GetJob(int64_t id);
+  // Newest first, ids below `before_id` (0: from the newest); `state` UNSPECIFIED: all.
+  // A job's state and stored iteration count alone (the cheap poll of watchers); nullopt: no such job.
+  std::optional<std::pair<v1::JobState, int>> Progress(int64_t id);
+  Result<std::vector<v1::Job>> ListJobs(v1::JobState state, int64_t before_id, int limit);
+  std::vector<int64_t> JobsInState(v1::JobState state);
+
+  // Leases the oldest queued job to `worker` until now + duration; nullopt when none is queued.
+  Result<std::optional<Lease>> LeaseNext(const std::string& worker, double now, double duration_s);
+  // True while `lease_id` holds `job_id` (RUNNING, not expired); extends it to now + duration.
+  bool Renew(int64_t job_id, const std::string& lease_id, double now, double duration_s);
+  bool LeaseValid(int64_t job_id, const std::string& lease_id);
+
+  // Stores iteration `metrics.iteration()` (it must be the next one) of a job held by `lease_id`.
+  Status AppendIteration(int64_t job_id, const std::string& lease_id, const v1::IterationMetrics& metrics,
+                         const std::string& design);
+  // Ends a lease: SUCCEEDED, FAILED (with `failure`), or back to QUEUED (released, lost). A job whose
+  // cancel was requested becomes CANCELLED instead. Returns the new state.
+  Result<v1::JobState> EndLease(int64_t job_id, const std::string& lease_id, v1::JobState state, const std::string& failure,
+                                double now);
+  // Leases that expired before `now` end as lost: the job is queued again, or FAILED once it has had
+  // max_attempts attempts. Returns the jobs affected.
+  std::vector<int64_t> ExpireLeases(double now);
+  // At start-up: leases of a previous server process are void; their jobs are queued again.
+  int ReleaseAllLeases(double now);
+
+  // Cancels a job: a queued one at once, a running one at its worker's next report (cancel_requested).
+  // Returns the job after the change; nullopt when there is no such job.
+  Result<std::optional<v1::Job>> Cancel(int64_t id, double now);
+  bool CancelRequested(int64_t job_id);
+
+  Result<std::vector<v1::IterationMetrics>> Metrics(int64_t job_id, int from, int to);  // [from, to)
+  // Iteration k's metrics and design; nullopt when not stored.
+  Result<std::optional<v1::IterationRecord>> Iteration(int64_t job_id, int k);
+  // Keeps iterations 0..keep-1 of a job (start-up repair when its HDF5 file holds fewer).
+  Status TruncateIterations(int64_t job_id, int keep);
+  Status SetGarmentFaces(int64_t job_id, int faces);
+
+  // PRAGMA integrity_check: "ok" or the problems.
+  std::string IntegrityCheck();
+
+ private:
+  JobStore() = default;
+  Status Exec(const std::string& sql);
+  Result<v1::Job> ReadJob(sqlite3_stmt* row);
+  std::recursive_mutex mu_;
+  sqlite3* db_ = nullptr;
+  int64_t lease_counter_ = 0;
+};
+
+bool IsTerminal(v1::JobState state);
+
+}  // namespace kgd::server

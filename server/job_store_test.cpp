@@ -1,0 +1,135 @@
+// The job store: schema versions, the lease life cycle (lease, renew, expire, retry limit), cancel,
+// and iterations that are stored in order, once, by the lease holder only.
+#include "server/job_store.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace kgd::server {
+namespace {
+
+std::string FreshPath(const std::string& name) {
+  const auto p = std::filesystem::temp_directory_path() / ("kgd_job_store_test_" + name + ".sqlite");
+  for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(p.string() + suffix);
+  return p.string();
+}
+
+v1::JobSpec Spec() {
+  v1::JobSpec s;
+  s.set_builtin_scene("sleeve_on_limb");
+  return s;
+}
+
+v1::IterationMetrics Metrics(int k) {
+  v1::IterationMetrics m;
+  m.set_iteration(k);
+  m.set_energy_j(1.0 / (k + 3));
+  m.set_density_ratio(1 + 0.1 * k);
+  m.set_solve_status("converged");
+  m.set_solver_iterations(k + 2);
+  return m;
+}
+
+TEST(JobStore, MigratesAFreshDatabaseAndRefusesANewerOne) {
+  const std::string path = FreshPath("version");
+  ASSERT_TRUE(JobStore::Open(path).ok());
+  ASSERT_TRUE(JobStore::Open(path).ok());  // reopening an up-to-date database changes nothing
+  {
+    sqlite3* db = nullptr;
+    sqlite3_open(path.c_str(), &db);
+    sqlite3_exec(db, ("PRAGMA user_version=" + std::to_string(kSchemaVersion + 1)).c_str(), nullptr, nullptr, nullptr);
+    sqlite3_close(db);
+  }
+  Result<std::unique_ptr<JobStore>> newer = JobStore::Open(path);
+  ASSERT_FALSE(newer.ok());
+  EXPECT_NE(newer.message().find("newer kgd"), std::string::npos) << newer.message();
+  std::ofstream(FreshPath("garbage")) << "not a database at all, just text that is long enough to be read";
+  Result<std::unique_ptr<JobStore>> garbage = JobStore::Open((std::filesystem::temp_directory_path() / "kgd_job_store_test_garbage.sqlite").string());
+  EXPECT_FALSE(garbage.ok());
+}
+
+TEST(JobStore, LeasesRenewsAndStoresIterationsInOrderForTheHolderOnly) {
+  auto store = std::move(JobStore::Open(FreshPath("lease"))).value();
+  const int64_t a = *store->CreateJob(Spec(), 3, 100.0), b = *store->CreateJob(Spec(), 3, 101.0);
+  Result<std::optional<Lease>> la = store->LeaseNext("w1", 102.0, 10.0);
+  ASSERT_TRUE(la.ok() && *la);
+  EXPECT_EQ((*la)->job_id, a);  // oldest first
+  EXPECT_EQ((*la)->attempt, 1);
+  EXPECT_EQ((**store->GetJob(a)).state(), v1::RUNNING);
+  EXPECT_EQ((**store->GetJob(a)).worker(), "w1");
+  const std::string lease = (*la)->lease_id;
+
+  EXPECT_TRUE(store->AppendIteration(a, lease, Metrics(0), std::string(5, '\1')).ok());
+  EXPECT_FALSE(store->AppendIteration(a, lease, Metrics(0), std::string(5, '\1')).ok());  // no duplicate
+  EXPECT_FALSE(store->AppendIteration(a, lease, Metrics(2), std::string(5, '\1')).ok());  // no gap
+  EXPECT_FALSE(store->AppendIteration(a, "someone-else", Metrics(1), std::string(5, '\1')).ok());
+  EXPECT_TRUE(store->AppendIteration(a, lease, Metrics(1), std::string(5, '\0')).ok());
+  const v1::Job job = **store->GetJob(a);
+  EXPECT_EQ(job.iterations(), 2);
+  EXPECT_EQ(job.last().iteration(), 1);
+  EXPECT_EQ(job.last().energy_j(), Metrics(1).energy_j());  // every metric column round-trips
+  EXPECT_EQ(job.last().solver_iterations(), 3);
+  EXPECT_EQ(job.last().solve_status(), "converged");
+  EXPECT_EQ((*store->Iteration(a, 1))->design(), std::string(5, '\0'));
+  EXPECT_FALSE(*store->Iteration(a, 2));
+
+  // Renewed leases live on; expired ones queue the job again, and it resumes where it was.
+  EXPECT_TRUE(store->Renew(a, lease, 110.0, 10.0));
+  EXPECT_TRUE(store->ExpireLeases(115.0).empty());
+  EXPECT_EQ(store->ExpireLeases(121.0), std::vector<int64_t>{a});
+  EXPECT_EQ((**store->GetJob(a)).state(), v1::QUEUED);
+  EXPECT_FALSE(store->AppendIteration(a, lease, Metrics(2), "x").ok());  // the old holder is out
+  Result<std::optional<Lease>> again = store->LeaseNext("w2", 122.0, 10.0);
+  EXPECT_EQ((*again)->job_id, a);
+  EXPECT_EQ((*again)->attempt, 2);
+  EXPECT_EQ((*again)->iterations, 2);
+  EXPECT_EQ(*store->EndLease(a, (*again)->lease_id, v1::SUCCEEDED, "", 130.0), v1::SUCCEEDED);
+  EXPECT_EQ((*store->LeaseNext("w2", 131.0, 10.0))->job_id, b);
+  EXPECT_EQ(store->IntegrityCheck(), "ok");
+}
+
+TEST(JobStore, GivesUpAfterMaxAttemptsAndCancelsQueuedAndRunningJobs) {
+  auto store = std::move(JobStore::Open(FreshPath("attempts"))).value();
+  const int64_t a = *store->CreateJob(Spec(), 2, 0.0);
+  for (int attempt = 1; attempt <= 2; ++attempt) {
+    Result<std::optional<Lease>> l = store->LeaseNext("w", 10.0 * attempt, 1.0);
+    ASSERT_TRUE(*l);
+    store->ExpireLeases(10.0 * attempt + 2);
+  }
+  const v1::Job failed = **store->GetJob(a);
+  EXPECT_EQ(failed.state(), v1::FAILED);
+  EXPECT_NE(failed.failure().find("gave up after 2 attempts"), std::string::npos) << failed.failure();
+
+  const int64_t queued = *store->CreateJob(Spec(), 2, 0.0);
+  EXPECT_EQ((**store->Cancel(queued, 1.0)).state(), v1::CANCELLED);
+  const int64_t running = *store->CreateJob(Spec(), 2, 0.0);
+  Result<std::optional<Lease>> l = store->LeaseNext("w", 1.0, 100.0);
+  ASSERT_EQ((*l)->job_id, running);
+  const v1::Job asked = **store->Cancel(running, 2.0);
+  EXPECT_EQ(asked.state(), v1::RUNNING);  // until the worker stops
+  EXPECT_TRUE(asked.cancel_requested());
+  EXPECT_EQ(*store->EndLease(running, (*l)->lease_id, v1::QUEUED, "", 3.0), v1::CANCELLED);
+  EXPECT_FALSE(*store->GetJob(12345));
+  EXPECT_FALSE(*store->Cancel(12345, 1.0));
+}
+
+TEST(JobStore, ListsNewestFirstInPagesWithAStateFilter) {
+  auto store = std::move(JobStore::Open(FreshPath("list"))).value();
+  for (int i = 0; i < 5; ++i) store->CreateJob(Spec(), 2, i);
+  store->Cancel(2, 10.0);
+  std::vector<v1::Job> page = *store->ListJobs(v1::JOB_STATE_UNSPECIFIED, 0, 3);
+  ASSERT_EQ(page.size(), 3u);
+  EXPECT_EQ(page[0].id(), 5);
+  EXPECT_EQ(page[2].id(), 3);
+  page = *store->ListJobs(v1::JOB_STATE_UNSPECIFIED, page.back().id(), 3);
+  ASSERT_EQ(page.size(), 2u);
+  EXPECT_EQ(page[1].id(), 1);
+  page = *store->ListJobs(v1::CANCELLED, 0, 10);
+  ASSERT_EQ(page.size(), 1u);
+  EXPECT_EQ(page[0].id(), 2);
+}
+
+}  // namespace
+}  // namespace kgd::server

@@ -1,0 +1,37 @@
+// kgd-server: the design service on a data folder (see server/design_server.h). SIGTERM or SIGINT
+// drains (running jobs checkpoint and are queued again) and exits.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+
+#include "core/util/termination.h"
+#include "server/design_server.h"
+
+int main(int argc, char** argv) {
+  kgd::server::ServerOptions o;
+  double max_message_mb = o.max_message_bytes / double(1 << 20);
+  CLI::App app("kgd-server: the kinesthetic garment design service (gRPC)");
+  app.add_option("--data", o.data_dir, "Data folder: kgd.sqlite and jobs/job-N.h5 (created if missing)")->required();
+  app.add_option("--listen", o.address, "host:port to listen on (port 0: any free port)")->capture_default_str();
+  app.add_option("--lease-s", o.lease_duration_s, "Seconds without a heartbeat after which a worker's job is queued again")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--max-attempts", o.max_attempts, "Leases a job gets before it fails")->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--max-message-mb", max_message_mb, "Largest request accepted (MiB)")->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--drain-s", o.drain_timeout_s, "On SIGTERM, seconds to wait for workers to checkpoint")->capture_default_str();
+  app.add_flag("--quiet", o.quiet, "No log lines");
+  CLI11_PARSE(app, argc, argv);
+  o.max_message_bytes = static_cast<int>(max_message_mb * (1 << 20));
+
+  kgd::BlockTerminationSignals();
+  auto server = kgd::server::DesignServer::Start(o);
+  if (!server.ok()) {
+    std::fprintf(stderr, "kgd-server: %s\n", server.message().c_str());
+    return 1;
+  }
+  // The port line is for scripts and tests that listen on port 0.
+  std::printf("listening on %s\n", (*server)->address().c_str());
+  std::fflush(stdout);
+  kgd::WaitForTerminationSignal();
+  (*server)->Drain();
+  (*server)->Shutdown();
+  return 0;
+}

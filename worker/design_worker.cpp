@@ -1,0 +1,217 @@
+#include "worker/design_worker.h"
+
+#include <grpcpp/grpcpp.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "core/beso/design_loop.h"
+#include "kgd/v1/kgd.grpc.pb.h"
+#include "proto/job_spec.h"
+#include "proto/records.h"
+#include "store/design_file.h"
+
+namespace kgd::worker {
+namespace {
+
+std::string DefaultName() {
+  char host[256] = {};
+  gethostname(host, sizeof host - 1);
+  return std::string(host) + ":" + std::to_string(getpid());
+}
+
+std::string JoinWords(const google::protobuf::RepeatedPtrField<std::string>& words) {
+  std::string s;
+  for (const std::string& w : words) s += (s.empty() ? "" : " ") + w;
+  return s;
+}
+
+}  // namespace
+
+struct DesignWorker::Impl {
+  WorkerOptions options;
+  std::shared_ptr<grpc::Channel> channel;
+  std::unique_ptr<v1::WorkerService::Stub> stub;
+  std::atomic<bool> stop{false};
+  std::vector<std::thread> slots;
+
+  void Log(const std::string& line) {
+    if (!options.quiet) std::fprintf(stderr, "kgd-worker %s: %s\n", options.name.c_str(), line.c_str());
+  }
+
+  void Slot(int index) {
+    const std::string name = options.jobs > 1 ? options.name + "/" + std::to_string(index) : options.name;
+    double backoff = 0.1;
+    while (!stop) {
+      v1::LeaseJobRequest req;
+      req.set_worker(name);
+      req.set_wait_s(2);
+      v1::LeaseJobResponse lease;
+      grpc::ClientContext ctx;
+      ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+      const grpc::Status st = stub->LeaseJob(&ctx, req, &lease);
+      if (!st.ok()) {
+        // The server is away (restarting, draining): try again, a little later each time.
+        std::this_thread::sleep_for(std::chrono::duration<double>(backoff));
+        backoff = std::min(2 * backoff, 1.0);
+        continue;
+      }
+      backoff = 0.1;
+      if (lease.leased()) RunLeasedJob(lease);
+    }
+  }
+
+  void RunLeasedJob(const v1::LeaseJobResponse& lease) {
+    Log("job " + std::to_string(lease.job_id()) + ": attempt " + std::to_string(lease.attempt()) +
+        (lease.history_size() ? ", resuming after iteration " + std::to_string(lease.history_size() - 1) : ""));
+    grpc::ClientContext ctx;
+    std::unique_ptr<grpc::ClientReaderWriter<v1::WorkerMessage, v1::ServerMessage>> stream = stub->RunJob(&ctx);
+    std::mutex write_mu;
+    auto send = [&](v1::WorkerMessage msg) {
+      msg.set_lease_id(lease.lease_id());
+      std::lock_guard lock(write_mu);
+      return stream->Write(msg);
+    };
+    auto fail = [&](const std::string& why) {
+      Log("job " + std::to_string(lease.job_id()) + " failed: " + why);
+      v1::WorkerMessage m;
+      m.set_fail(why);
+      send(m);
+      stream->WritesDone();
+      v1::ServerMessage ignored;
+      while (stream->Read(&ignored)) {
+      }
+      stream->Finish();
+    };
+
+    Result<SceneSpec> scene = SceneOfJob(lease.spec());
+    if (!scene.ok()) return fail(scene.message());
+    Result<BesoSettings> settings = SettingsOfJob(lease.spec().optimizer(), scene->budget);
+    if (!settings.ok()) return fail(settings.message());
+    ApplySolverOverrides(lease.spec().optimizer(), &scene->solver);
+
+    std::vector<BesoIteration> resume;
+    if (lease.history_size() > 0) {
+      for (const v1::IterationMetrics& m : lease.history()) resume.push_back(MetricsFromProto(m));
+      Result<BesoIteration> last = RecordFromProto(lease.last(), static_cast<int>(scene->garment.faces.rows()),
+                                                   static_cast<int>(scene->garment.vertices.rows()));
+      if (!last.ok()) return fail("checkpoint: " + last.message());
+      if (last->iteration != resume.back().iteration) return fail("checkpoint: the last record is not the last iteration");
+      resume.back() = std::move(last).value();
+    }
+
+    v1::WorkerMessage start;
+    {
+      DesignFileHeader h;
+      h.garment = scene->garment;
+      h.initial = scene->initial;
+      h.rest_area_m2 = FaceAreas(scene->garment.vertices, scene->garment.faces);
+      h.attachment_faces = scene->attachment_faces;
+      *start.mutable_start()->mutable_garment() = GarmentToProto(h);
+      start.mutable_start()->set_scene(JobSceneName(lease.spec()));
+      start.mutable_start()->set_body(JoinWords(lease.spec().body()));
+      start.mutable_start()->set_settings_json(BesoSettingsToJson(*settings));
+    }
+    if (!send(start)) return fail("the server closed the stream");
+
+    std::atomic<bool> cancel{false}, drain{false}, lost{false}, done{false};
+    std::string server_error;
+    std::thread reader([&] {
+      v1::ServerMessage reply;
+      while (stream->Read(&reply)) {
+        if (!reply.error().empty()) {
+          server_error = reply.error();
+          lost = true;
+        }
+        if (reply.cancel()) cancel = true;
+        if (reply.drain()) drain = true;
+      }
+      lost = true;
+    });
+    std::thread heartbeat([&] {
+      const auto period = std::chrono::duration<double>(std::max(0.05, lease.lease_duration_s() / 4));
+      auto next = std::chrono::steady_clock::now() + period;
+      while (!done) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        if (std::chrono::steady_clock::now() < next) continue;
+        next += period;
+        v1::WorkerMessage m;
+        m.set_heartbeat(true);
+        if (!send(m)) lost = true;
+      }
+    });
+    auto keep_going = [&] { return !(cancel || drain || lost || stop); };
+    auto on_iteration = [&](const BesoIteration& it) {
+      v1::WorkerMessage m;
+      *m.mutable_iteration() = RecordToProto(it);
+      m.mutable_iteration()->mutable_metrics()->set_report_time_s(
+          std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count());
+      if (!send(m)) lost = true;
+      return keep_going();
+    };
+    const Result<std::vector<BesoIteration>> run = RunBeso(*scene, *settings, on_iteration, resume.empty() ? nullptr : &resume);
+    done = true;
+    heartbeat.join();
+    v1::WorkerMessage end;
+    std::string outcome;
+    if (lost) {
+      outcome = "lost the server (" + (server_error.empty() ? std::string("stream closed") : server_error) + ")";
+    } else if (!run.ok()) {
+      end.set_fail(run.message());
+      outcome = "failed: " + run.message();
+    } else if (cancel || drain || stop) {
+      end.set_release(true);
+      outcome = cancel ? "cancelled" : "released";
+    } else {
+      end.set_complete(true);
+      outcome = "complete";
+    }
+    if (!lost) send(end);
+    {
+      std::lock_guard lock(write_mu);
+      stream->WritesDone();
+    }
+    reader.join();
+    stream->Finish();
+    Log("job " + std::to_string(lease.job_id()) + ": " + outcome);
+  }
+};
+
+Result<std::unique_ptr<DesignWorker>> DesignWorker::Start(const WorkerOptions& options) {
+  if (options.jobs < 1) return Status::Error("--jobs " + std::to_string(options.jobs) + ": must be at least 1");
+  auto w = std::unique_ptr<DesignWorker>(new DesignWorker);
+  w->impl_ = std::make_unique<Impl>();
+  Impl& m = *w->impl_;
+  m.options = options;
+  if (m.options.name.empty()) m.options.name = DefaultName();
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(256 << 20);
+  args.SetMaxSendMessageSize(256 << 20);
+  // Reconnect quickly after a server restart (the default backoff grows to two minutes).
+  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 1000);
+  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
+  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
+  m.channel = grpc::CreateCustomChannel(options.server, grpc::InsecureChannelCredentials(), args);
+  m.stub = v1::WorkerService::NewStub(m.channel);
+  for (int i = 0; i < options.jobs; ++i) m.slots.emplace_back([&m, i] { m.Slot(i); });
+  return w;
+}
+
+DesignWorker::~DesignWorker() {
+  Stop();
+  Wait();
+}
+
+void DesignWorker::Stop() { impl_->stop = true; }
+
+void DesignWorker::Wait() {
+  for (std::thread& t : impl_->slots)
+    if (t.joinable()) t.join();
+}
+
+}  // namespace kgd::worker

@@ -1,0 +1,27 @@
+// kgd-worker: runs design jobs leased from a kgd-server (see worker/design_worker.h). SIGTERM or
+// SIGINT: running jobs stop after their current iteration and go back to the queue.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+
+#include "core/util/termination.h"
+#include "worker/design_worker.h"
+
+int main(int argc, char** argv) {
+  kgd::worker::WorkerOptions o;
+  CLI::App app("kgd-worker: runs kinesthetic garment design jobs for a kgd-server");
+  app.add_option("--server", o.server, "The server, host:port")->capture_default_str();
+  app.add_option("--jobs", o.jobs, "Jobs run at once")->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--name", o.name, "Name shown by the server (default host:pid)");
+  app.add_flag("--quiet", o.quiet, "No log lines");
+  CLI11_PARSE(app, argc, argv);
+  kgd::BlockTerminationSignals();
+  auto worker = kgd::worker::DesignWorker::Start(o);
+  if (!worker.ok()) {
+    std::fprintf(stderr, "kgd-worker: %s\n", worker.message().c_str());
+    return 2;
+  }
+  kgd::WaitForTerminationSignal();
+  (*worker)->Stop();
+  (*worker)->Wait();
+  return 0;
+}
