@@ -91,6 +91,20 @@ struct Service {
   }
 };
 
+// CPU seconds (user + system) a process has used so far, from /proc.
+double CpuSeconds(pid_t pid) {
+  FILE* f = std::fopen(("/proc/" + std::to_string(pid) + "/stat").c_str(), "r");
+  if (!f) return 0;
+  char buf[4096] = {};
+  const size_t n = std::fread(buf, 1, sizeof buf - 1, f);
+  std::fclose(f);
+  buf[n] = 0;
+  const char* p = std::strrchr(buf, ')');  // fields 14 and 15 (utime, stime) after the command name
+  unsigned long long utime = 0, stime = 0;
+  if (p) std::sscanf(p + 2, "%*c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %llu %llu", &utime, &stime);
+  return static_cast<double>(utime + stime) / sysconf(_SC_CLK_TCK);
+}
+
 double Percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -106,6 +120,7 @@ void LatencyRun(const std::string& scene, int watchers, int iterations) {
     args.SetInt("kgd.benchmark.connection", c);  // distinct arguments: distinct connections
     channels.push_back(grpc::CreateCustomChannel(service.address, grpc::InsecureChannelCredentials(), args));
   }
+  const double server_cpu0 = CpuSeconds(service.server);
   const int64_t id = service.Submit(scene, iterations);
   std::mutex mu;
   std::vector<double> latency_ms;
@@ -138,12 +153,13 @@ void LatencyRun(const std::string& scene, int watchers, int iterations) {
   }
   for (std::thread& t : threads) t.join();
   service.WaitDone(id);
+  const double server_cpu = CpuSeconds(service.server) - server_cpu0;
   double mean = 0;
   for (double s : iteration_s) mean += s;
   mean /= std::max<size_t>(1, iteration_s.size());
-  std::printf("latency  %s  watchers %3d  iterations %4zu  deliveries %6zu  p50 %7.2f ms  p99 %7.2f ms  max %7.2f ms  worker %.4f s/iteration\n",
+  std::printf("latency  %s  watchers %3d  iterations %4zu  deliveries %6zu  p50 %7.2f ms  p99 %7.2f ms  max %7.2f ms  worker %.4f s/iteration  server CPU %.1f ms/iteration\n",
               scene.c_str(), watchers, iteration_s.size() + 1, latency_ms.size(), Percentile(latency_ms, 0.5), Percentile(latency_ms, 0.99),
-              Percentile(latency_ms, 1.0), mean);
+              Percentile(latency_ms, 1.0), mean, 1e3 * server_cpu / (iteration_s.size() + 1));
   std::fflush(stdout);
 }
 

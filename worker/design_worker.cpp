@@ -160,7 +160,7 @@ struct DesignWorker::Impl {
     v1::WorkerMessage end;
     std::string outcome;
     if (lost) {
-      outcome = "lost the server (" + (server_error.empty() ? std::string("stream closed") : server_error) + ")";
+      outcome = "lost the server";
     } else if (!run.ok()) {
       end.set_fail(run.message());
       outcome = "failed: " + run.message();
@@ -176,8 +176,9 @@ struct DesignWorker::Impl {
       std::lock_guard lock(write_mu);
       stream->WritesDone();
     }
-    reader.join();
+    reader.join();  // after this, server_error is the reader's no more
     stream->Finish();
+    if (!server_error.empty()) outcome += " (" + server_error + ")";
     Log("job " + std::to_string(lease.job_id()) + ": " + outcome);
   }
 };
