@@ -42,7 +42,13 @@ struct DesignServer::Impl : v1::DesignService::Service, v1::WorkerService::Servi
 
   // Commits (HDF5 + SQLite), leases and the open design files go through commit_mu.
   std::mutex commit_mu;
-  std::map<int64_t, std::unique_ptr<DesignFileWriter>> files;
+  // A job's open design file belongs to one lease: a stream whose lease was lost (expired, re-leased)
+  // can neither write to nor close the file of the lease that replaced it.
+  struct OpenFile {
+    std::string lease_id;
+    std::unique_ptr<DesignFileWriter> writer;
+  };
+  std::map<int64_t, OpenFile> files;
 
   // Anything a watcher or a waiting worker may care about bumps `version`.
   std::mutex event_mu;
@@ -291,8 +297,9 @@ struct DesignServer::Impl : v1::DesignService::Service, v1::WorkerService::Servi
     std::lock_guard lock(commit_mu);
     if (!store->LeaseValid(job_id, lease_id)) return Status::Error("the lease on job " + std::to_string(job_id) + " is no longer held");
     auto it = files.find(job_id);
-    if (it == files.end()) return Status::Error("job " + std::to_string(job_id) + ": iteration reported before start");
-    DesignFileWriter& w = *it->second;
+    if (it == files.end() || it->second.lease_id != lease_id)
+      return Status::Error("job " + std::to_string(job_id) + ": iteration reported before start");
+    DesignFileWriter& w = *it->second.writer;
     if (record.metrics().iteration() != w.num_iterations())
       return Status::Error("job " + std::to_string(job_id) + ": iteration " + std::to_string(record.metrics().iteration()) + " reported after " +
                            std::to_string(w.num_iterations()) + " stored");
@@ -324,9 +331,10 @@ struct DesignServer::Impl : v1::DesignService::Service, v1::WorkerService::Servi
     return std::shared_ptr<const v1::IterationRecord>(std::make_shared<v1::IterationRecord>(std::move(**rec)));
   }
 
-  void CloseFile(int64_t job_id) {
+  void CloseFile(int64_t job_id, const std::string& lease_id) {
     std::lock_guard lock(commit_mu);
-    files.erase(job_id);
+    auto it = files.find(job_id);
+    if (it != files.end() && it->second.lease_id == lease_id) files.erase(it);
   }
 
   grpc::Status RunJob(ServerContext* ctx, grpc::ServerReaderWriter<v1::ServerMessage, v1::WorkerMessage>* stream) override {
@@ -342,7 +350,7 @@ struct DesignServer::Impl : v1::DesignService::Service, v1::WorkerService::Servi
     };
     if (job_id <= 0 || !store->LeaseValid(job_id, lease_id)) return refuse("lease '" + lease_id + "' is not held");
     if (msg.has_fail()) {
-      CloseFile(job_id);
+      CloseFile(job_id, lease_id);
       store->EndLease(job_id, lease_id, v1::FAILED, msg.fail(), Now());
       Log("job " + std::to_string(job_id) + " failed: " + msg.fail());
       Notify();
@@ -379,7 +387,7 @@ struct DesignServer::Impl : v1::DesignService::Service, v1::WorkerService::Servi
         Notify();
         return refuse(w.message());
       }
-      files[job_id] = std::move(w).value();
+      files[job_id] = OpenFile{lease_id, std::move(w).value()};
     }
     ++active_streams;
     v1::JobState end = v1::QUEUED;
@@ -413,13 +421,13 @@ struct DesignServer::Impl : v1::DesignService::Service, v1::WorkerService::Servi
       if (!ended) {
         std::lock_guard lock(commit_mu);
         auto it = files.find(job_id);
-        reply.set_acknowledged_iterations(it == files.end() ? 0 : it->second->num_iterations());
+        reply.set_acknowledged_iterations(it == files.end() ? 0 : it->second.writer->num_iterations());
         reply.set_cancel(store->CancelRequested(job_id));
         reply.set_drain(draining);
         stream->Write(reply);
       }
     }
-    CloseFile(job_id);
+    CloseFile(job_id, lease_id);
     Result<v1::JobState> state = store->EndLease(job_id, lease_id, end, failure, Now());
     if (state.ok()) Log("job " + std::to_string(job_id) + " " + v1::JobState_Name(*state) + (failure.empty() ? "" : " (" + failure + ")"));
     Notify();

@@ -75,6 +75,7 @@ class Service {
                                       dir_ + "/worker" + std::to_string(k) + ".log"));
     return k;
   }
+  void SignalWorker(int k, int sig) { workers_[k].Signal(sig); }
   void KillWorker(int k) {
     workers_[k].Signal(SIGKILL);
     workers_[k].Wait();
@@ -243,6 +244,28 @@ TEST(Service, AKilledWorkersJobResumesOnTheOtherWorkerIdenticalToAnUninterrupted
   EXPECT_GE(after.iterations(), before.iterations());
   EXPECT_NE(service.Log().find("leased to w" + std::to_string(1 - victim) + " (attempt 2, from iteration"), std::string::npos)
       << service.Log();
+  ExpectSameAsLocal(service.DataFile(job.id()), LocalRun(30));
+}
+
+// A worker frozen (SIGSTOP) mid-job keeps its stream open but stops heartbeating: its lease expires, the
+// job resumes on the other worker, and when the frozen one wakes up its reports are refused; the result
+// is still the uninterrupted run's.
+TEST(Service, AFrozenWorkersLeaseExpiresAndItsLateReportsAreRefused) {
+  Service service("worker_frozen");
+  service.StartWorker();
+  service.StartWorker();
+  v1::Job job;
+  ASSERT_TRUE(service.Create(Sleeve(30), &job).ok());
+  ASSERT_TRUE(WaitFor([&] { return service.Get(job.id()).iterations() >= 4; }, 120)) << service.Log();
+  const v1::Job before = service.Get(job.id());
+  const int frozen = before.worker() == "w0" ? 0 : 1;
+  service.SignalWorker(frozen, SIGSTOP);
+  ASSERT_TRUE(WaitFor([&] { return service.Log().find("lease expired") != std::string::npos; }, 60)) << service.Log();
+  service.SignalWorker(frozen, SIGCONT);
+  ASSERT_TRUE(WaitFor([&] { return service.Finished(job.id()); }, 120)) << service.Log();
+  const v1::Job after = service.Get(job.id());
+  EXPECT_EQ(after.state(), v1::SUCCEEDED) << after.failure();
+  EXPECT_EQ(after.attempts(), 2);
   ExpectSameAsLocal(service.DataFile(job.id()), LocalRun(30));
 }
 
