@@ -337,86 +337,82 @@ struct DesignServer::Impl : v1::DesignService::Service, v1::WorkerService::Servi
     if (it != files.end() && it->second.lease_id == lease_id) files.erase(it);
   }
 
+  // Opens the job's design file for `lease_id` from the worker's start report: a new file for a new
+  // job, the stored one (cut to the acknowledged iterations) for a resumed one.
+  Status OpenJobFile(int64_t job_id, const std::string& lease_id, const v1::JobStart& start) {
+    std::lock_guard lock(commit_mu);
+    if (!store->LeaseValid(job_id, lease_id)) return Status::Error("the lease on job " + std::to_string(job_id) + " is no longer held");
+    Result<std::optional<v1::Job>> job = store->GetJob(job_id);
+    if (!job.ok()) return job.status();
+    if (!*job) return Status::Error("job " + std::to_string(job_id) + " vanished");
+    const std::string path = FilePath(job_id);
+    Result<std::unique_ptr<DesignFileWriter>> w = Status::Error("");
+    if ((*job)->iterations() == 0) {
+      DesignFileHeader header;
+      header.scene = start.scene();
+      header.body = start.body();
+      Result<BesoSettings> settings = BesoSettingsFromJson(start.settings_json());
+      if (!settings.ok()) return Status::Error("bad start report: " + settings.message());
+      KGD_RETURN_IF_ERROR(GarmentFromProto(start.garment(), &header).WithContext("bad start report: "));
+      header.settings = *settings;
+      fs::create_directories(fs::path(path).parent_path());
+      w = DesignFileWriter::Create(path, header);
+      store->SetGarmentFaces(job_id, static_cast<int>(header.garment.faces.rows()));
+    } else {
+      w = DesignFileWriter::Reopen(path, (*job)->iterations());
+    }
+    if (!w.ok()) return w.status();
+    files[job_id] = OpenFile{lease_id, std::move(w).value()};
+    return Status::Ok();
+  }
+
   grpc::Status RunJob(ServerContext* ctx, grpc::ServerReaderWriter<v1::ServerMessage, v1::WorkerMessage>* stream) override {
     v1::WorkerMessage msg;
     if (!stream->Read(&msg)) return grpc::Status::OK;
     const std::string lease_id = msg.lease_id();
     const int64_t job_id = std::atoll(lease_id.c_str());
-    auto refuse = [&](const std::string& why) {
+    if (job_id <= 0 || !store->LeaseValid(job_id, lease_id)) {
       v1::ServerMessage reply;
-      reply.set_error(why);
+      reply.set_error("lease '" + lease_id + "' is not held");
       stream->Write(reply);
-      return grpc::Status(StatusCode::FAILED_PRECONDITION, why);
-    };
-    if (job_id <= 0 || !store->LeaseValid(job_id, lease_id)) return refuse("lease '" + lease_id + "' is not held");
-    if (msg.has_fail()) {
-      CloseFile(job_id, lease_id);
-      store->EndLease(job_id, lease_id, v1::FAILED, msg.fail(), Now());
-      Log("job " + std::to_string(job_id) + " failed: " + msg.fail());
-      Notify();
-      return grpc::Status::OK;
-    }
-    if (!msg.has_start()) return refuse("the first message of a job must be start");
-    {
-      std::lock_guard lock(commit_mu);
-      Result<std::optional<v1::Job>> job = store->GetJob(job_id);
-      if (!job.ok() || !*job) return refuse("job " + std::to_string(job_id) + " vanished");
-      const std::string path = FilePath(job_id);
-      Result<std::unique_ptr<DesignFileWriter>> w = Status::Ok();
-      if ((*job)->iterations() == 0) {
-        DesignFileHeader header;
-        header.scene = msg.start().scene();
-        header.body = msg.start().body();
-        Result<BesoSettings> settings = BesoSettingsFromJson(msg.start().settings_json());
-        Status garment = GarmentFromProto(msg.start().garment(), &header);
-        if (!settings.ok() || !garment.ok()) {
-          const std::string why = "bad start report: " + (settings.ok() ? garment.message() : settings.message());
-          store->EndLease(job_id, lease_id, v1::FAILED, why, Now());
-          Notify();
-          return refuse(why);
-        }
-        header.settings = *settings;
-        fs::create_directories(fs::path(path).parent_path());
-        w = DesignFileWriter::Create(path, header);
-        store->SetGarmentFaces(job_id, static_cast<int>(header.garment.faces.rows()));
-      } else {
-        w = DesignFileWriter::Reopen(path, (*job)->iterations());
-      }
-      if (!w.ok()) {
-        store->EndLease(job_id, lease_id, v1::FAILED, w.message(), Now());
-        Notify();
-        return refuse(w.message());
-      }
-      files[job_id] = OpenFile{lease_id, std::move(w).value()};
+      return grpc::Status(StatusCode::FAILED_PRECONDITION, reply.error());
     }
     ++active_streams;
+    // How the lease ends when the stream does: by default the worker is lost and the job queued again.
     v1::JobState end = v1::QUEUED;
     std::string failure = "the worker disconnected";
-    bool ended = false;
-    while (!ended && stream->Read(&msg)) {
+    bool started = false, ended = false;
+    do {
       v1::ServerMessage reply;
-      if (msg.has_iteration()) {
-        if (Status st = Commit(job_id, lease_id, msg.iteration()); !st.ok()) {
-          reply.set_error(st.message());
-          stream->Write(reply);
-          failure = st.message();
-          break;
+      std::string refused;
+      if (msg.has_heartbeat()) {
+        if (!store->Renew(job_id, lease_id, Now(), options.lease_duration_s))
+          refused = "the lease on job " + std::to_string(job_id) + " is no longer held";
+      } else if (msg.has_start()) {
+        Status st = started ? Status::Error("a second start report") : OpenJobFile(job_id, lease_id, msg.start());
+        if (!st.ok()) {
+          refused = st.message();
+          end = v1::FAILED;  // a worker that cannot describe its garment, or a file that cannot be written
         }
-        store->Renew(job_id, lease_id, Now(), options.lease_duration_s);
-        Notify();
-      } else if (msg.has_heartbeat()) {
-        if (!store->Renew(job_id, lease_id, Now(), options.lease_duration_s)) {
-          reply.set_error("the lease on job " + std::to_string(job_id) + " is no longer held");
-          stream->Write(reply);
-          failure = reply.error();
-          break;
+        started = true;
+      } else if (msg.has_iteration()) {
+        if (Status st = Commit(job_id, lease_id, msg.iteration()); !st.ok()) refused = st.message();
+        else {
+          store->Renew(job_id, lease_id, Now(), options.lease_duration_s);
+          Notify();
         }
       } else if (msg.has_complete()) {
-        end = v1::SUCCEEDED, failure.clear(), ended = true;
+        end = started ? v1::SUCCEEDED : v1::FAILED, failure = started ? "" : "completed without starting", ended = true;
       } else if (msg.has_fail()) {
         end = v1::FAILED, failure = msg.fail(), ended = true;
       } else if (msg.has_release()) {
         end = v1::QUEUED, failure.clear(), ended = true;
+      }
+      if (!refused.empty()) {
+        reply.set_error(refused);
+        stream->Write(reply);
+        failure = refused;
+        break;
       }
       if (!ended) {
         std::lock_guard lock(commit_mu);
@@ -426,7 +422,7 @@ struct DesignServer::Impl : v1::DesignService::Service, v1::WorkerService::Servi
         reply.set_drain(draining);
         stream->Write(reply);
       }
-    }
+    } while (!ended && stream->Read(&msg));
     CloseFile(job_id, lease_id);
     Result<v1::JobState> state = store->EndLease(job_id, lease_id, end, failure, Now());
     if (state.ok()) Log("job " + std::to_string(job_id) + " " + v1::JobState_Name(*state) + (failure.empty() ? "" : " (" + failure + ")"));

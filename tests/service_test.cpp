@@ -484,9 +484,19 @@ TEST(Service, BadRequestsGetClearErrorsAndLeaveRunningJobsAlone) {
     EXPECT_EQ(bytes, std::string("\x08\x01", 2)) << "status SERVING";
   }
 
-  ASSERT_TRUE(WaitFor([&] { return service.Finished(running.id()); }, 120));
+  // A spec that validates but whose scene cannot be built fails with the worker's reason, once.
+  spec = Sleeve(10);
+  spec.mutable_scene_files()->set_scene_json(R"({"name": "broken", "garment": {"rest": "missing.obj"}})");
+  v1::Job broken;
+  ASSERT_TRUE(service.Create(spec, &broken).ok());
+
+  ASSERT_TRUE(WaitFor([&] { return service.Finished(running.id()) && service.Finished(broken.id()); }, 120));
   EXPECT_EQ(service.Get(running.id()).state(), v1::SUCCEEDED);
   ExpectSameAsLocal(service.DataFile(running.id()), LocalRun(25));
+  const v1::Job failed = service.Get(broken.id());
+  EXPECT_EQ(failed.state(), v1::FAILED);
+  EXPECT_EQ(failed.attempts(), 1);
+  EXPECT_NE(failed.failure().find("missing.obj"), std::string::npos) << failed.failure();
 }
 
 // SIGTERM drains: the running job stops after its iteration, goes back to the queue, and a restarted

@@ -77,50 +77,15 @@ struct DesignWorker::Impl {
       std::lock_guard lock(write_mu);
       return stream->Write(msg);
     };
-    auto fail = [&](const std::string& why) {
-      Log("job " + std::to_string(lease.job_id()) + " failed: " + why);
-      v1::WorkerMessage m;
-      m.set_fail(why);
-      send(m);
-      stream->WritesDone();
-      v1::ServerMessage ignored;
-      while (stream->Read(&ignored)) {
-      }
-      stream->Finish();
-    };
-
-    Result<SceneSpec> scene = SceneOfJob(lease.spec());
-    if (!scene.ok()) return fail(scene.message());
-    Result<BesoSettings> settings = SettingsOfJob(lease.spec().optimizer(), scene->budget);
-    if (!settings.ok()) return fail(settings.message());
-    ApplySolverOverrides(lease.spec().optimizer(), &scene->solver);
-
-    std::vector<BesoIteration> resume;
-    if (lease.history_size() > 0) {
-      for (const v1::IterationMetrics& m : lease.history()) resume.push_back(MetricsFromProto(m));
-      Result<BesoIteration> last = RecordFromProto(lease.last(), static_cast<int>(scene->garment.faces.rows()),
-                                                   static_cast<int>(scene->garment.vertices.rows()));
-      if (!last.ok()) return fail("checkpoint: " + last.message());
-      if (last->iteration != resume.back().iteration) return fail("checkpoint: the last record is not the last iteration");
-      resume.back() = std::move(last).value();
-    }
-
-    v1::WorkerMessage start;
-    {
-      DesignFileHeader h;
-      h.garment = scene->garment;
-      h.initial = scene->initial;
-      h.rest_area_m2 = FaceAreas(scene->garment.vertices, scene->garment.faces);
-      h.attachment_faces = scene->attachment_faces;
-      *start.mutable_start()->mutable_garment() = GarmentToProto(h);
-      start.mutable_start()->set_scene(JobSceneName(lease.spec()));
-      start.mutable_start()->set_body(JoinWords(lease.spec().body()));
-      start.mutable_start()->set_settings_json(BesoSettingsToJson(*settings));
-    }
-    if (!send(start)) return fail("the server closed the stream");
-
+    // The stream, its reader and the heartbeats run from the start: building a large scene may take
+    // longer than the lease.
     std::atomic<bool> cancel{false}, drain{false}, lost{false}, done{false};
     std::string server_error;
+    {
+      v1::WorkerMessage hello;
+      hello.set_heartbeat(true);
+      if (!send(hello)) lost = true;
+    }
     std::thread reader([&] {
       v1::ServerMessage reply;
       while (stream->Read(&reply)) {
@@ -145,25 +110,64 @@ struct DesignWorker::Impl {
         if (!send(m)) lost = true;
       }
     });
-    auto keep_going = [&] { return !(cancel || drain || lost || stop); };
-    auto on_iteration = [&](const BesoIteration& it) {
-      v1::WorkerMessage m;
-      *m.mutable_iteration() = RecordToProto(it);
-      m.mutable_iteration()->mutable_metrics()->set_report_time_s(
-          std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count());
-      if (!send(m)) lost = true;
-      return keep_going();
-    };
-    const Result<std::vector<BesoIteration>> run = RunBeso(*scene, *settings, on_iteration, resume.empty() ? nullptr : &resume);
+
+    // What the job comes to: run.ok() with the flags, or a failure reason.
+    std::string failure;
+    Result<std::vector<BesoIteration>> run = Status::Error("not run");
+    Result<SceneSpec> scene = SceneOfJob(lease.spec());
+    Result<BesoSettings> settings = Status::Error("");
+    std::vector<BesoIteration> resume;
+    if (!scene.ok()) failure = scene.message();
+    if (failure.empty()) {
+      settings = SettingsOfJob(lease.spec().optimizer(), scene->budget);
+      if (!settings.ok()) failure = settings.message();
+    }
+    if (failure.empty()) {
+      ApplySolverOverrides(lease.spec().optimizer(), &scene->solver);
+      if (lease.history_size() > 0) {
+        for (const v1::IterationMetrics& m : lease.history()) resume.push_back(MetricsFromProto(m));
+        Result<BesoIteration> last = RecordFromProto(lease.last(), static_cast<int>(scene->garment.faces.rows()),
+                                                     static_cast<int>(scene->garment.vertices.rows()));
+        if (!last.ok()) failure = "checkpoint: " + last.message();
+        else if (last->iteration != resume.back().iteration) failure = "checkpoint: the last record is not the last iteration";
+        else resume.back() = std::move(last).value();
+      }
+    }
+    if (failure.empty()) {
+      v1::WorkerMessage start;
+      DesignFileHeader h;
+      h.garment = scene->garment;
+      h.initial = scene->initial;
+      h.rest_area_m2 = FaceAreas(scene->garment.vertices, scene->garment.faces);
+      h.attachment_faces = scene->attachment_faces;
+      *start.mutable_start()->mutable_garment() = GarmentToProto(h);
+      start.mutable_start()->set_scene(JobSceneName(lease.spec()));
+      start.mutable_start()->set_body(JoinWords(lease.spec().body()));
+      start.mutable_start()->set_settings_json(BesoSettingsToJson(*settings));
+      if (!send(start)) lost = true;
+      auto keep_going = [&] { return !(cancel || drain || lost || stop); };
+      auto on_iteration = [&](const BesoIteration& it) {
+        v1::WorkerMessage m;
+        *m.mutable_iteration() = RecordToProto(it);
+        m.mutable_iteration()->mutable_metrics()->set_report_time_s(
+            std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count());
+        if (!send(m)) lost = true;
+        return keep_going();
+      };
+      if (keep_going()) {
+        run = RunBeso(*scene, *settings, on_iteration, resume.empty() ? nullptr : &resume);
+        if (!run.ok()) failure = run.message();
+      }
+    }
     done = true;
     heartbeat.join();
     v1::WorkerMessage end;
     std::string outcome;
     if (lost) {
       outcome = "lost the server";
-    } else if (!run.ok()) {
-      end.set_fail(run.message());
-      outcome = "failed: " + run.message();
+    } else if (!failure.empty()) {
+      end.set_fail(failure);
+      outcome = "failed: " + failure;
     } else if (cancel || drain || stop) {
       end.set_release(true);
       outcome = cancel ? "cancelled" : "released";
