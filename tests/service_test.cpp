@@ -133,12 +133,14 @@ const DesignFile& LocalRun(int iterations, double budget = 0.15) {
   auto key = std::make_pair(iterations, budget);
   if (!cache.count(key)) {
     const std::string path =
-        (fs::temp_directory_path() / ("kgd_service_test_local_" + std::to_string(iterations) + "_" + std::to_string(budget) + ".h5")).string();
+        (fs::temp_directory_path() / ("kgd_service_test_local_" + std::to_string(getpid()) + "_" + std::to_string(iterations) + "_" +
+                                   std::to_string(budget) + ".h5")).string();  // per process: ctest runs tests side by side
     const auto run = Kgd("design sleeve_on_limb --json --iterations " + std::to_string(iterations) + " --budget " + std::to_string(budget) +
                          " --out " + path);
     EXPECT_EQ(run.exit_code, 0) << run.output;
     Result<DesignFile> f = ReadDesignFile(path);
     EXPECT_TRUE(f.ok()) << f.message();
+    fs::remove(path);
     cache[key] = std::move(f).value();
   }
   return cache[key];
