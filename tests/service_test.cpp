@@ -168,13 +168,14 @@ struct Watched {
   std::vector<v1::JobState> states;
   grpc::Status status;
 };
-Watched Watch(v1::DesignService::Stub& stub, int64_t id, int from, int stop_after = -1) {
+Watched Watch(v1::DesignService::Stub& stub, int64_t id, int from, int stop_after = -1, bool with_positions = false) {
   Watched w;
   grpc::ClientContext ctx;
   ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
   v1::WatchJobRequest req;
   req.set_id(id);
   req.set_from_iteration(from);
+  req.set_with_positions(with_positions);
   auto reader = stub.WatchJob(&ctx, req);
   v1::WatchJobEvent ev;
   while (reader->Read(&ev)) {
@@ -413,6 +414,15 @@ TEST(Service, WatchersReplayThenFollowLiveIdenticallyAndResumeWithoutGaps) {
   ASSERT_TRUE(f.ok());
   for (size_t i = 0; i < a.iterations.size(); ++i)
     EXPECT_EQ(a.iterations[i].design(), std::string(f->iterations[i].design.begin(), f->iterations[i].design.end()));
+  // Positions on request: the stored equilibrium, bit for bit.
+  const Watched with_positions = Watch(service.stub(), job.id(), done.iterations() - 2, -1, true);
+  ASSERT_EQ(with_positions.iterations.size(), 2u);
+  for (const v1::IterationRecord& r : with_positions.iterations) {
+    const Positions& x = f->iterations[r.metrics().iteration()].positions;
+    ASSERT_EQ(r.positions_size(), x.size());
+    for (int i = 0; i < r.positions_size(); ++i) ASSERT_EQ(r.positions(i), x.data()[i]);
+  }
+  EXPECT_EQ(a.iterations.back().positions_size(), 0) << "positions only on request";
 }
 
 // 6. Bad requests get clear errors and disturb nothing; the server answers health checks.
