@@ -13,9 +13,11 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "client/metrics_json.h"
 #include "client/optimizer_flags.h"
 #include "client/simulate_command.h"
 #include "proto/job_spec.h"
+#include "proto/records.h"
 #include "core/beso/baselines.h"
 #include "core/beso/design_loop.h"
 #include "core/mesh/mesh_io.h"
@@ -68,26 +70,6 @@ std::string Duration(double s) {
   else if (s < 3600) std::snprintf(buf, sizeof buf, "%dm%02ds", static_cast<int>(s) / 60, static_cast<int>(s) % 60);
   else std::snprintf(buf, sizeof buf, "%dh%02dm", static_cast<int>(s) / 3600, static_cast<int>(s) % 3600 / 60);
   return buf;
-}
-
-nlohmann::ordered_json IterationJson(const BesoIteration& it) {
-  nlohmann::ordered_json j;
-  j["iteration"] = it.iteration;
-  j["area_fraction"] = it.area_fraction;
-  j["target_area_m2"] = it.target_area_m2;
-  j["energy_J"] = it.energy_J;
-  j["reinforced_energy_J"] = it.reinforced_energy_J;
-  j["reinforced_density_J_per_m2"] = it.reinforced_density_J_per_m2;
-  j["density_ratio"] = it.density_ratio;
-  j["status"] = ToString(it.status);
-  j["solver_iterations"] = it.solver_iterations;
-  j["cold_restart"] = it.cold_restart;
-  j["simulation_s"] = it.simulation_s;
-  j["sensitivity_s"] = it.sensitivity_s;
-  j["filter_s"] = it.filter_s;
-  j["update_s"] = it.update_s;
-  j["total_s"] = it.total_s;
-  return j;
 }
 
 int Fail(const char* command, const std::string& message, int code = 2) {
@@ -186,7 +168,7 @@ int RunDesign(const DesignOptions& o) {
                   std::string(width - filled, '.').c_str(), it.iteration, 100 * it.area_fraction, it.density_ratio, mean,
                   Duration(left * mean).c_str());
     } else {
-      nlohmann::ordered_json j = IterationJson(it);
+      nlohmann::ordered_json j = MetricsJson(MetricsToProto(it));
       j["eta_s"] = left * mean;
       std::printf("%s\n", j.dump().c_str());
     }
@@ -232,7 +214,7 @@ int RunDesigns(const std::string& path, bool json) {
     j["garment_faces"] = h.garment.faces.rows();
     j["garment_area_m2"] = h.rest_area_m2.sum();
     j["iterations"] = nlohmann::json::array();
-    for (const BesoIteration& it : f->iterations) j["iterations"].push_back(IterationJson(it));
+    for (const BesoIteration& it : f->iterations) j["iterations"].push_back(MetricsJson(MetricsToProto(it)));
     std::printf("%s\n", j.dump().c_str());
     return 0;
   }
