@@ -5,6 +5,7 @@
 #include <benchmark/benchmark.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 
 #include "core/beso/design_loop.h"
@@ -86,6 +87,60 @@ void RunDesign(benchmark::State& state, const std::string& name, int iterations)
   state.counters["area_fraction"] = area;
   state.counters["vertices"] = static_cast<double>(scene->garment.vertices.rows());
 }
+
+// Appending one iteration's record to a design file (the server's share of an iteration, with the
+// SQLite commit): an arm-flexion-sized garment (7,056 vertices, 13,690 faces), smooth positions and
+// energies as a run produces them.
+void BM_DesignFileAppend(benchmark::State& state) {
+  const int n = 84;
+  DesignFileHeader header;
+  header.scene = "grid";
+  header.garment.vertices.resize(n * n, 3);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) header.garment.vertices.row(i * n + j) << 0.003 * i, 0.003 * j, 0.0;
+  header.garment.faces.resize(2 * (n - 1) * (n - 1), 3);
+  int f = 0;
+  for (int i = 0; i + 1 < n; ++i)
+    for (int j = 0; j + 1 < n; ++j) {
+      const int a = i * n + j;
+      header.garment.faces.row(f++) << a, a + n, a + 1;
+      header.garment.faces.row(f++) << a + 1, a + n, a + n + 1;
+    }
+  header.initial = header.garment.vertices;
+  header.rest_area_m2 = FaceAreas(header.garment.vertices, header.garment.faces);
+  const std::string path = (std::filesystem::temp_directory_path() / "kgd_bench_append.h5").string();
+  auto writer = DesignFileWriter::Create(path, header);
+  if (!writer.ok()) {
+    state.SkipWithError(writer.message().c_str());
+    return;
+  }
+  BesoIteration it;
+  it.design.assign(f, 1);
+  it.positions = header.garment.vertices;
+  it.energy_density_Pa.resize(f);
+  it.sensitivity.resize(f);
+  int k = 0;
+  for (auto _ : state) {
+    it.iteration = k;
+    for (int i = 0; i < it.positions.rows(); ++i) it.positions(i, 2) = 0.01 * std::sin(0.1 * i + 0.01 * k);
+    for (int e = 0; e < f; ++e) {
+      it.energy_density_Pa[e] = 100.0 + 50.0 * std::cos(0.05 * e + 0.1 * k);
+      it.sensitivity[e] = 0.5 * it.energy_density_Pa[e];
+    }
+    if (k < f) it.design[k] = 0;
+    const Status st = (*writer)->Append(it);
+    if (!st.ok()) {
+      state.SkipWithError(st.message().c_str());
+      break;
+    }
+    ++k;
+  }
+  writer->reset();
+  state.counters["file_MB"] = static_cast<double>(std::filesystem::file_size(path)) / 1e6;
+  state.counters["iterations"] = k;
+  std::filesystem::remove(path);
+}
+BENCHMARK(BM_DesignFileAppend)->Unit(benchmark::kMillisecond)->Iterations(150);
 
 void BM_ArmFlexion20(benchmark::State& state) { RunDesign(state, "arm_flexion", 20); }
 void BM_ArmFlexionRun(benchmark::State& state) { RunDesign(state, "arm_flexion", 0); }

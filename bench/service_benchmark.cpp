@@ -1,13 +1,17 @@
 // The design service's costs, measured with real processes on loopback (a kgd-server, one kgd-worker):
 //   latency   worker finishes an iteration -> a watcher receives it (p50, p99), with 1 and with 100
-//             watchers of the job, and what 100 watchers cost the worker (mean seconds per iteration)
+//             watchers of the job, and what 100 watchers cost the worker (mean seconds per iteration).
+//             --pin: the worker on CPU 1 with one thread, the server and the watchers on CPU 0, so that
+//             the worker's time shows what the server's work for watchers costs it, apart from the
+//             watchers' own decoding (on a 2-core machine they otherwise share the worker's cores)
 //   overhead  arm flexion (N iterations) through server + worker vs `kgd design` locally, wall time
-// Usage: service_benchmark [latency|overhead|all] [--scene S --iterations N --watchers W (latency; sleeve_on_limb, 150, 100)]
-//                          [--arm-iterations N (overhead)] [--repeat R (overhead)]
+// Usage: service_benchmark [latency|overhead|all] [--scene S --iterations N --watchers W --pin (latency; sleeve_on_limb, 150, 100)]
+//                          [--arm-iterations N (overhead)] [--repeat R (both; 3; `all` runs latency once)]
 // Figures go to docs/PERFORMANCE.md with the command, the machine and the date.
 #include <arpa/inet.h>
 #include <grpcpp/grpcpp.h>
 #include <netinet/in.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
@@ -44,13 +48,19 @@ struct Service {
   std::string dir, address;
   pid_t server = -1, worker = -1;
   std::unique_ptr<kgd::v1::DesignService::Stub> stub;
-  explicit Service(const std::string& name) {
+  explicit Service(const std::string& name, bool pin = false) {
     dir = (fs::temp_directory_path() / ("kgd_service_benchmark_" + name)).string();
     fs::remove_all(dir);
     fs::create_directories(dir);
     address = "127.0.0.1:" + std::to_string(FreePort());
-    server = Spawn({KGD_SERVER_BINARY, "--data", dir + "/data", "--listen", address, "--quiet"}, dir + "/server.log");
-    worker = Spawn({KGD_WORKER_BINARY, "--server", address, "--quiet"}, dir + "/worker.log");
+    std::vector<std::string> server_cmd{KGD_SERVER_BINARY, "--data", dir + "/data", "--listen", address, "--quiet"};
+    std::vector<std::string> worker_cmd{KGD_WORKER_BINARY, "--server", address, "--quiet"};
+    if (pin) {
+      server_cmd.insert(server_cmd.begin(), {"/usr/bin/taskset", "-c", "0"});
+      worker_cmd.insert(worker_cmd.begin(), {"/usr/bin/env", "OMP_NUM_THREADS=1", "/usr/bin/taskset", "-c", "1"});
+    }
+    server = Spawn(server_cmd, dir + "/server.log");
+    worker = Spawn(worker_cmd, dir + "/worker.log");
     stub = kgd::v1::DesignService::NewStub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
   }
   ~Service() {
@@ -112,8 +122,15 @@ double Percentile(std::vector<double> v, double p) {
 }
 
 // One job of `iterations` sleeve iterations watched by `watchers` clients (spread over 10 connections).
-void LatencyRun(const std::string& scene, int watchers, int iterations) {
-  Service service("latency_" + std::to_string(watchers));
+// Returns the worker's seconds per iteration (all but the first, cold, iteration).
+std::vector<double> LatencyRun(const std::string& scene, int watchers, int iterations, bool pin) {
+  if (pin) {  // this process (the watchers) beside the server on CPU 0
+    cpu_set_t cpus;
+    CPU_ZERO(&cpus);
+    CPU_SET(0, &cpus);
+    sched_setaffinity(0, sizeof cpus, &cpus);
+  }
+  Service service("latency_" + std::to_string(watchers), pin);
   std::vector<std::shared_ptr<grpc::Channel>> channels;
   for (int c = 0; c < std::min(watchers, 10); ++c) {
     grpc::ChannelArguments args;
@@ -157,10 +174,11 @@ void LatencyRun(const std::string& scene, int watchers, int iterations) {
   double mean = 0;
   for (double s : iteration_s) mean += s;
   mean /= std::max<size_t>(1, iteration_s.size());
-  std::printf("latency  %s  watchers %3d  iterations %4zu  deliveries %6zu  p50 %7.2f ms  p99 %7.2f ms  max %7.2f ms  worker %.4f s/iteration  server CPU %.1f ms/iteration\n",
-              scene.c_str(), watchers, iteration_s.size() + 1, latency_ms.size(), Percentile(latency_ms, 0.5), Percentile(latency_ms, 0.99),
+  std::printf("latency  %s%s  watchers %3d  iterations %4zu  deliveries %6zu  p50 %7.2f ms  p99 %7.2f ms  max %7.2f ms  worker %.4f s/iteration  server CPU %.1f ms/iteration\n",
+              scene.c_str(), pin ? " (pinned)" : "", watchers, iteration_s.size() + 1, latency_ms.size(), Percentile(latency_ms, 0.5), Percentile(latency_ms, 0.99),
               Percentile(latency_ms, 1.0), mean, 1e3 * server_cpu / (iteration_s.size() + 1));
   std::fflush(stdout);
+  return iteration_s;
 }
 
 // Local and service runs alternate `repeat` times; the fastest of each counts (this machine's timings
@@ -190,6 +208,7 @@ void OverheadRun(int iterations, int repeat) {
 int main(int argc, char** argv) {
   std::string what = "all", scene = "sleeve_on_limb";
   int iterations = 150, arm_iterations = 20, watchers = 100, repeat = 3;
+  bool pin = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--iterations" && i + 1 < argc) iterations = std::atoi(argv[++i]);
@@ -197,15 +216,23 @@ int main(int argc, char** argv) {
     else if (a == "--watchers" && i + 1 < argc) watchers = std::atoi(argv[++i]);
     else if (a == "--repeat" && i + 1 < argc) repeat = std::atoi(argv[++i]);
     else if (a == "--scene" && i + 1 < argc) scene = argv[++i];
+    else if (a == "--pin") pin = true;
     else if (a == "latency" || a == "overhead" || a == "all") what = a;
     else {
-      std::fprintf(stderr, "usage: service_benchmark [latency|overhead|all] [--iterations N] [--watchers W] [--scene S] [--arm-iterations N] [--repeat R]\n");
+      std::fprintf(stderr, "usage: service_benchmark [latency|overhead|all] [--iterations N] [--watchers W] [--scene S] [--pin] [--arm-iterations N] [--repeat R]\n");
       return 2;
     }
   }
   if (what != "overhead") {
-    LatencyRun(scene, 1, iterations);
-    LatencyRun(scene, watchers, iterations);
+    // Runs alternate (this machine's timings drift); the worker's median over all of them compares.
+    std::vector<double> one, many;
+    for (int r = 0; r < (what == "latency" ? repeat : 1); ++r) {
+      for (double s : LatencyRun(scene, 1, iterations, pin)) one.push_back(s);
+      for (double s : LatencyRun(scene, watchers, iterations, pin)) many.push_back(s);
+    }
+    const double a = Percentile(one, 0.5), b = Percentile(many, 0.5);
+    std::printf("worker   %s  median s/iteration over %zu and %zu iterations: 1 watcher %.4f, %d watchers %.4f (%+.1f %%)\n",
+                scene.c_str(), one.size(), many.size(), a, watchers, b, 100 * (b / a - 1));
   }
   if (what != "latency") OverheadRun(arm_iterations, repeat);
   return 0;

@@ -2,9 +2,10 @@
 
 #include <unistd.h>
 
+#include <google/protobuf/util/json_util.h>
+
 #include <filesystem>
 #include <fstream>
-#include <nlohmann/json.hpp>
 #include <sstream>
 
 namespace kgd {
@@ -21,7 +22,50 @@ Status CheckBundlePath(const std::string& name) {
   return Status::Ok();
 }
 
+// Every path a scene names (meshes, and index lists given as files), with its key, for the bundle check.
+std::vector<std::pair<std::string, std::string>> FilesNamed(const v1::Scene& s) {
+  std::vector<std::pair<std::string, std::string>> out;
+  auto add = [&](const char* key, const std::string& path) { out.emplace_back(key, path); };
+  auto add_value = [&](const char* key, const google::protobuf::Value& v) {
+    if (v.kind_case() == google::protobuf::Value::kStringValue) add(key, v.string_value());
+  };
+  if (s.garment().has_rest()) add("garment.rest", s.garment().rest());
+  if (s.garment().has_initial()) add("garment.initial", s.garment().initial());
+  add_value("garment.region", s.garment().region());
+  const google::protobuf::Value& design = s.garment().design();
+  if (design.has_struct_value())
+    if (auto f = design.struct_value().fields().find("reinforced_faces"); f != design.struct_value().fields().end())
+      add_value("garment.design.reinforced_faces", f->second);
+  if (s.body().has_mesh()) add("body.mesh", s.body().mesh());
+  if (s.body().has_rest()) add("body.rest", s.body().rest());
+  if (s.body().has_deformed()) add("body.deformed", s.body().deformed());
+  for (const std::string& f : s.body().frames()) add("body.frames", f);
+  add_value("attachments.faces", s.attachments().faces());
+  add_value("attachments.body_faces", s.attachments().body_faces());
+  for (const v1::SceneClamp& c : s.clamps()) add_value("clamps.vertices", c.vertices());
+  return out;
+}
+
 }  // namespace
+
+Result<v1::Scene> ParseSceneJson(const std::string& text, const std::string& source) {
+  v1::Scene scene;
+  google::protobuf::util::JsonParseOptions options;
+  options.ignore_unknown_fields = false;
+  const auto status = google::protobuf::util::JsonStringToMessage(text, &scene, options);
+  if (!status.ok()) return Status::Error(source + ": not a kgd.v1.Scene: " + std::string(status.message()));
+  return scene;
+}
+
+std::string SceneJson(const v1::Scene& scene) {
+  google::protobuf::util::JsonPrintOptions options;
+  options.add_whitespace = true;
+  options.preserve_proto_field_names = true;
+  std::string text;
+  // Printing a parsed message cannot fail (no Any fields whose types would need resolving).
+  (void)google::protobuf::util::MessageToJsonString(scene, &text, options);
+  return text;
+}
 
 Result<BesoSettings> SettingsOfJob(const v1::OptimizerSettings& o, double scene_budget) {
   BesoSettings s;
@@ -66,10 +110,12 @@ Status ValidateJobSpec(const v1::JobSpec& spec) {
     }
     case v1::JobSpec::kSceneFiles: {
       if (spec.body_size() > 0) return Status::Error("spec.body: body overrides apply to built-in scenes, not to scene files");
-      if (!nlohmann::json::accept(spec.scene_files().scene_json()))
-        return Status::Error("spec.scene_files.scene_json: not valid JSON");
+      if (!spec.scene_files().has_scene()) return Status::Error("spec.scene_files.scene: missing");
       for (const auto& [name, content] : spec.scene_files().files())
         if (Status st = CheckBundlePath(name); !st.ok()) return st;
+      for (const auto& [key, path] : FilesNamed(spec.scene_files().scene()))
+        if (spec.scene_files().files().count(path) == 0)
+          return Status::Error("spec.scene_files.scene." + key + ": '" + path + "' is not among the files sent");
       break;
     }
     default:
@@ -95,7 +141,7 @@ Result<SceneSpec> SceneOfJob(const v1::JobSpec& spec) {
     out.write(content.data(), static_cast<std::streamsize>(content.size()));
     if (!out) written = Status::Error(p.string() + ": cannot write a scene file");
   };
-  write("scene.json", spec.scene_files().scene_json());
+  write("scene.json", SceneJson(spec.scene_files().scene()));
   for (const auto& [name, content] : spec.scene_files().files()) write(name, content);
   Result<SceneSpec> scene = written.ok() ? LoadScene((dir / "scene.json").string()) : Result<SceneSpec>(written);
   std::error_code ec;
@@ -122,7 +168,12 @@ Result<v1::SceneFiles> ReadSceneFiles(const std::string& scene_path) {
     *out = s.str();
     return static_cast<bool>(in);
   };
-  if (!read(scene_path, files.mutable_scene_json())) return Status::Error(scene_path + ": cannot read");
+  std::string text;
+  if (!read(scene_path, &text)) return Status::Error(scene_path + ": cannot read");
+  // The loader has accepted it, so a refusal here means the loader and the schema disagree.
+  Result<v1::Scene> parsed = ParseSceneJson(text, scene_path);
+  if (!parsed.ok()) return parsed.status();
+  *files.mutable_scene() = std::move(parsed).value();
   const fs::path dir = fs::path(scene_path).parent_path();
   for (const std::string& name : names) {
     if (Status st = CheckBundlePath(name); !st.ok())
@@ -136,8 +187,7 @@ Result<v1::SceneFiles> ReadSceneFiles(const std::string& scene_path) {
 
 std::string JobSceneName(const v1::JobSpec& spec) {
   if (spec.scene_case() == v1::JobSpec::kBuiltinScene) return spec.builtin_scene();
-  const nlohmann::json doc = nlohmann::json::parse(spec.scene_files().scene_json(), nullptr, false);
-  if (doc.is_object() && doc.contains("name") && doc["name"].is_string()) return doc["name"].get<std::string>();
+  if (spec.scene_files().scene().has_name()) return spec.scene_files().scene().name();
   return "(scene file)";
 }
 

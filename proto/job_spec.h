@@ -13,8 +13,8 @@
 namespace kgd {
 
 // Checks a spec without building its scene (the server's CreateJob): a scene is given, a built-in
-// name is known, body overrides parse, scene files are JSON and name no path outside their folder,
-// optimizer settings are in range. The message starts with the field's name, e.g.
+// name is known, body overrides parse, every file the scene names is in the bundle and no bundle path
+// leaves its folder, optimizer settings are in range. The message starts with the field's name, e.g.
 // "spec.optimizer.budget: 1.5 is outside (0, 1]".
 Status ValidateJobSpec(const v1::JobSpec& spec);
 
@@ -29,11 +29,17 @@ void ApplySolverOverrides(const v1::OptimizerSettings& optimizer, SolverSettings
 // temporary folder, loaded, and removed again.
 Result<SceneSpec> SceneOfJob(const v1::JobSpec& spec);
 
+// A scene file's text as the kgd.v1.Scene message (the schema); errors start with `source`.
+Result<v1::Scene> ParseSceneJson(const std::string& text, const std::string& source);
+
+// The scene file a Scene message is the JSON form of (proto field names, indented).
+std::string SceneJson(const v1::Scene& scene);
+
 // A scene file and every file it names, read for sending (`kgd submit scene.json`). The scene is
-// loaded once to check it and to learn which files it names.
+// loaded once to check it and to learn which files it names, then parsed into the schema.
 Result<v1::SceneFiles> ReadSceneFiles(const std::string& scene_path);
 
-// A one-line name of a spec for listings: the built-in name or the scene file's "name".
+// A one-line name of a spec for listings: the built-in name or the scene's name.
 std::string JobSceneName(const v1::JobSpec& spec);
 
 }  // namespace kgd

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <nlohmann/json.hpp>
 
 #include "proto/records.h"
 
@@ -34,9 +35,13 @@ TEST(JobSpec, RejectsBadSpecsNamingTheField) {
   s.add_body("height_m=tall");
   EXPECT_NE(message(s).find("spec.body"), std::string::npos);
   s = v1::JobSpec();
-  s.mutable_scene_files()->set_scene_json("{\"name\": ");
-  EXPECT_NE(message(s).find("spec.scene_files.scene_json"), std::string::npos);
-  s.mutable_scene_files()->set_scene_json("{}");
+  s.mutable_scene_files();
+  EXPECT_NE(message(s).find("spec.scene_files.scene: missing"), std::string::npos) << message(s);
+  s.mutable_scene_files()->mutable_scene()->mutable_body()->add_frames("frames/f1.obj");
+  EXPECT_NE(message(s).find("spec.scene_files.scene.body.frames: 'frames/f1.obj' is not among the files sent"),
+            std::string::npos) << message(s);
+  (*s.mutable_scene_files()->mutable_files())["frames/f1.obj"] = "x";
+  EXPECT_TRUE(ValidateJobSpec(s).ok()) << message(s);
   (*s.mutable_scene_files()->mutable_files())["../etc/passwd"] = "x";
   EXPECT_NE(message(s).find("leaves the scene's folder"), std::string::npos);
   EXPECT_TRUE(ValidateJobSpec(Builtin("sleeve_on_limb")).ok());
@@ -86,6 +91,101 @@ TEST(JobSpec, ASceneFileTravelsWithItsMeshes) {
   ASSERT_FALSE(broken.ok());
   EXPECT_EQ(broken.message().find("kgd_scene_"), std::string::npos) << broken.message();
   EXPECT_NE(broken.message().find("spec.scene_files"), std::string::npos);
+}
+
+// Scene files are the JSON form of kgd.v1.Scene: exported scenes of every kind (a garment of its own
+// with clamps, one on a body with contact and attachments, one cut from a body motion with frames)
+// and the shipped examples parse into the message, and the message's JSON loads as the same scene.
+TEST(SceneSchema, SceneFilesAreTheJsonFormOfTheSceneMessage) {
+  const std::filesystem::path tmp = std::filesystem::temp_directory_path() / "kgd_scene_schema_test";
+  auto same = [](const SceneSpec& a, const SceneSpec& b) {
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_TRUE(a.garment.vertices == b.garment.vertices);
+    EXPECT_TRUE(a.garment.faces == b.garment.faces);
+    EXPECT_TRUE(a.initial == b.initial);
+    EXPECT_EQ(a.design, b.design);
+    EXPECT_EQ(a.budget, b.budget);
+    EXPECT_EQ(a.cloth.youngs_modulus_Pa, b.cloth.youngs_modulus_Pa);
+    EXPECT_EQ(a.reinforced.thickness_m, b.reinforced.thickness_m);
+    EXPECT_EQ(a.effects.contact, b.effects.contact);
+    EXPECT_EQ(a.effects.relaxation, b.effects.relaxation);
+    EXPECT_EQ(a.effects.friction, b.effects.friction);
+    EXPECT_EQ(a.effects.clamps, b.effects.clamps);
+    EXPECT_EQ(a.attachment_faces, b.attachment_faces);
+    EXPECT_EQ(a.attachment_stiffness_N_per_m, b.attachment_stiffness_N_per_m);
+    EXPECT_EQ(a.contact_stiffness_N_per_m, b.contact_stiffness_N_per_m);
+    ASSERT_EQ(a.clamps.size(), b.clamps.size());
+    for (size_t i = 0; i < a.clamps.size(); ++i) {
+      EXPECT_EQ(a.clamps[i].vertices, b.clamps[i].vertices);
+      EXPECT_TRUE(a.clamps[i].displacement_m == b.clamps[i].displacement_m);
+    }
+    EXPECT_EQ(a.solver.grad_tol, b.solver.grad_tol);
+    EXPECT_EQ(a.solver.max_iterations, b.solver.max_iterations);
+    EXPECT_EQ(a.body.has_value(), b.body.has_value());
+    if (a.body && b.body) {
+      EXPECT_TRUE(a.body->vertices == b.body->vertices);
+    }
+    EXPECT_EQ(a.motion.has_value(), b.motion.has_value());
+    if (a.motion && b.motion) {
+      EXPECT_EQ(a.motion->frames.size(), b.motion->frames.size());
+    }
+  };
+  auto round_trip = [&](const std::string& scene_path) {
+    SCOPED_TRACE(scene_path);
+    Result<SceneSpec> direct = LoadScene(scene_path);
+    ASSERT_TRUE(direct.ok()) << direct.message();
+    Result<v1::SceneFiles> files = ReadSceneFiles(scene_path);  // parses the file into kgd.v1.Scene
+    ASSERT_TRUE(files.ok()) << files.message();
+    v1::JobSpec spec;
+    *spec.mutable_scene_files() = *files;
+    ASSERT_TRUE(ValidateJobSpec(spec).ok()) << ValidateJobSpec(spec).message();
+    Result<SceneSpec> via_message = SceneOfJob(spec);  // loads SceneJson(message)
+    ASSERT_TRUE(via_message.ok()) << via_message.message();
+    same(*direct, *via_message);
+  };
+  for (const char* name : {"pull_test_x", "sleeve_on_limb", "knee_flexion"}) {
+    std::filesystem::remove_all(tmp);
+    Result<SceneSpec> scene = BuiltinScene(name);
+    ASSERT_TRUE(scene.ok()) << scene.message();
+    if (scene->motion) scene->motion->frames.resize(std::min<size_t>(scene->motion->frames.size(), 2));
+    ASSERT_TRUE(ExportScene(*scene, tmp.string()).ok());
+    round_trip((tmp / "scene.json").string());
+  }
+  std::filesystem::remove_all(tmp);
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(std::string(KGD_SOURCE_DIR) + "/examples"))
+    if (entry.path().extension() == ".json") round_trip(entry.path().string());
+}
+
+// Every key the loader knows is a field of the message (inline index lists included), and a key the
+// schema does not know is refused by both, by name.
+TEST(SceneSchema, TheSchemaAndTheLoaderKnowTheSameKeys) {
+  const char* own = R"({"name": "n", "description": "d", "budget": 0.2,
+    "garment": {"rest": "g.obj", "initial": "i.obj", "design": {"reinforced_faces": [0, 1]}},
+    "materials": {"lame": "plane_stress", "cloth": {"youngs_modulus_Pa": 5e5, "poisson_ratio": 0.3, "thickness_m": 3e-4},
+                  "reinforced": {"youngs_modulus_Pa": 5e6, "poisson_ratio": 0.3, "thickness_m": 3e-4}},
+    "effects": {"membrane": true, "relaxation": "authors", "fold_barrier": false, "contact": "unilateral",
+                "friction": 0.1, "attachments": true, "clamps": true},
+    "body": {"mesh": "b.obj", "support_scale": 2.5}, "contact": {"stiffness_N_per_m": 4000},
+    "attachments": {"faces": "a.txt", "stiffness_N_per_m": 3000},
+    "clamps": [{"name": "c", "vertices": {"box_min": [0, 0, 0], "box_max": [1, 1, 1]}, "axes": "z", "displacement_m": [0, 0, 0.01]},
+               {"vertices": [3, 4]}],
+    "solver": {"method": "lbfgs", "grad_tol": 1e-6, "max_iterations": 50, "reuse_factorization": false, "lbfgs_history": 10}})";
+  const char* cut = R"({"garment": {"region": [0, 1, 2], "subdivisions": 1, "design": "all_cloth"},
+    "body": {"rest": "r.obj", "deformed": "d.obj", "frames": ["f1.obj", "f2.obj"]},
+    "attachments": {"body_faces": "ab.txt"}})";
+  for (const char* text : {own, cut}) {
+    Result<v1::Scene> scene = ParseSceneJson(text, "scene.json");
+    ASSERT_TRUE(scene.ok()) << scene.message();
+    // Printed back, it holds the same JSON (every set field kept, also those equal to proto defaults).
+    EXPECT_EQ(nlohmann::json::parse(SceneJson(*scene)), nlohmann::json::parse(text));
+  }
+  Result<v1::Scene> unknown = ParseSceneJson(R"({"garment": {"rest": "g.obj", "colour": "red"}})", "scene.json");
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_NE(unknown.message().find("scene.json"), std::string::npos) << unknown.message();
+  EXPECT_NE(unknown.message().find("colour"), std::string::npos) << unknown.message();
+  Result<v1::Scene> wrong_type = ParseSceneJson(R"({"budget": "most"})", "scene.json");
+  ASSERT_FALSE(wrong_type.ok());
+  EXPECT_NE(wrong_type.message().find("budget"), std::string::npos) << wrong_type.message();
 }
 
 TEST(Records, IterationsRoundTripBitForBit) {

@@ -398,8 +398,8 @@ struct DesignServer::Impl : v1::DesignService::Service, v1::WorkerService::Servi
       } else if (msg.has_iteration()) {
         if (Status st = Commit(job_id, lease_id, msg.iteration()); !st.ok()) refused = st.message();
         else {
+          Notify();  // watchers first: the lease renewal is one more SQLite commit
           store->Renew(job_id, lease_id, Now(), options.lease_duration_s);
-          Notify();
         }
       } else if (msg.has_complete()) {
         end = started ? v1::SUCCEEDED : v1::FAILED, failure = started ? "" : "completed without starting", ended = true;

@@ -143,9 +143,18 @@ bool ReadAll(hid_t group, const char* name, hid_t mem_type, void* data) {
   return set.ok() && H5Dread(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0;
 }
 
-// An extendible dataset of rows of shape `row` (chunk = one row, deflate).
-bool CreateGrowing(hid_t group, const char* name, hid_t file_type, const std::vector<hsize_t>& row) {
-  std::vector<hsize_t> dims{0}, max{H5S_UNLIMITED}, chunk{1};
+// How a growing dataset is stored. Per-iteration float arrays are not deflated: double-precision
+// positions, energies and sensitivities are mostly mantissa noise and shrink by only ~25 % with
+// shuffle + deflate, which cost ~13 ms of the ~15 ms an arm-flexion append takes (bench/
+// design_benchmark BM_DesignFileAppend) and sit on the path from a worker's report to its watchers.
+// Designs (bytes of 0 and 1) deflate to a few percent.
+enum class Storage { kScalars, kDeflated, kRaw };
+
+// An extendible dataset of rows of shape `row`, one chunk per row (per 64 rows for scalars, so that a
+// history reads in a few chunks).
+bool CreateGrowing(hid_t group, const char* name, hid_t file_type, const std::vector<hsize_t>& row,
+                   Storage storage = Storage::kScalars) {
+  std::vector<hsize_t> dims{0}, max{H5S_UNLIMITED}, chunk{row.empty() ? hsize_t{64} : hsize_t{1}};
   for (hsize_t r : row) {
     dims.push_back(r);
     max.push_back(r);
@@ -154,7 +163,7 @@ bool CreateGrowing(hid_t group, const char* name, hid_t file_type, const std::ve
   Id space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), max.data()), H5Sclose);
   Id plist(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
   H5Pset_chunk(plist, static_cast<int>(chunk.size()), chunk.data());
-  if (!row.empty()) {
+  if (storage == Storage::kDeflated) {
     H5Pset_shuffle(plist);
     H5Pset_deflate(plist, 4);
   }
@@ -339,10 +348,10 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
        CreateGrowing(m.iterations, "status", H5T_STD_I32LE, {});
   for (const MetricSpec& s : Metrics())
     ok = ok && CreateGrowing(m.iterations, s.name, s.integer ? H5T_STD_I32LE : H5T_IEEE_F64LE, {});
-  ok = ok && CreateGrowing(m.iterations, "design", H5T_STD_U8LE, {nf}) &&
-       CreateGrowing(m.iterations, "positions", H5T_IEEE_F64LE, {nv, 3}) &&
-       CreateGrowing(m.iterations, "energy_density_Pa", H5T_IEEE_F64LE, {nf}) &&
-       CreateGrowing(m.iterations, "sensitivity", H5T_IEEE_F64LE, {nf});
+  ok = ok && CreateGrowing(m.iterations, "design", H5T_STD_U8LE, {nf}, Storage::kDeflated) &&
+       CreateGrowing(m.iterations, "positions", H5T_IEEE_F64LE, {nv, 3}, Storage::kRaw) &&
+       CreateGrowing(m.iterations, "energy_density_Pa", H5T_IEEE_F64LE, {nf}, Storage::kRaw) &&
+       CreateGrowing(m.iterations, "sensitivity", H5T_IEEE_F64LE, {nf}, Storage::kRaw);
   if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot write the design file (disk full?)");
   if (H5Fstart_swmr_write(m.file) < 0) return Fail(path, "cannot start single-writer/multiple-reader mode");
   return w;
@@ -403,7 +412,10 @@ Status DesignFileWriter::Append(const BesoIteration& it) {
        WriteRow(m.iterations, "positions", H5T_NATIVE_DOUBLE, row, x.data()) &&
        WriteRow(m.iterations, "energy_density_Pa", H5T_NATIVE_DOUBLE, row, it.energy_density_Pa.data()) &&
        WriteRow(m.iterations, "sensitivity", H5T_NATIVE_DOUBLE, row, sens.data());
-  // Last: the commit marker.
+  // Last, once everything else is on disk: the commit marker. (Within one flush HDF5 may write the
+  // marker's extent before another dataset's chunk; a writer killed in between left a file whose
+  // marker promised a row the design did not have.)
+  ok = ok && H5Fflush(m.file, H5F_SCOPE_GLOBAL) >= 0;
   ok = ok && WriteRow(m.iterations, "iteration", H5T_NATIVE_INT, row, &it.iteration);
   if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0)
     return Fail(m.path, "cannot write iteration " + std::to_string(it.iteration) + " (disk full?)");

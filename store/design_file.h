@@ -18,8 +18,10 @@
 //   /iterations/energy_density_Pa (N,F) float64, strain energy density W
 //   /iterations/sensitivity      (N,F)   float64, filtered averaged sensitivities (row 0: zeros)
 //
-// Per-iteration datasets are chunked one iteration per chunk and deflate-compressed, and grow by one
-// row per Append. /iterations/iteration is written last: its length is the number of complete
+// Per-iteration arrays are chunked one iteration per chunk, metrics 64 iterations per chunk; designs
+// are deflate-compressed, the float arrays are not (they shrink by only ~25 % at most of an append's
+// cost: design_file.cpp; `h5repack -f GZIP=4` packs a finished file). Datasets grow by one row per
+// Append. /iterations/iteration is written last: its length is the number of complete
 // iterations, and a reader (or a resumed writer) ignores rows beyond it. The writer flushes the file
 // after every iteration (an interrupted `kgd design` resumes from the last one).
 #pragma once

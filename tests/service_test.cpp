@@ -463,7 +463,7 @@ TEST(Service, BadRequestsGetClearErrorsAndLeaveRunningJobsAlone) {
   EXPECT_NE(cli.output.find("job 987654 does not exist"), std::string::npos) << cli.output;
 
   spec = Sleeve(10);
-  spec.mutable_scene_files()->set_scene_json(std::string(2 << 20, ' ') + "{}");
+  spec.mutable_scene_files()->mutable_scene()->set_description(std::string(2 << 20, 'x'));
   st = service.Create(spec, &ignored);
   EXPECT_EQ(st.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << st.error_message();
 
@@ -496,9 +496,17 @@ TEST(Service, BadRequestsGetClearErrorsAndLeaveRunningJobsAlone) {
     EXPECT_EQ(bytes, std::string("\x08\x01", 2)) << "status SERVING";
   }
 
-  // A spec that validates but whose scene cannot be built fails with the worker's reason, once.
+  // A scene naming a file the bundle lacks is refused at once, naming the key and the file.
   spec = Sleeve(10);
-  spec.mutable_scene_files()->set_scene_json(R"({"name": "broken", "garment": {"rest": "missing.obj"}})");
+  spec.mutable_scene_files()->mutable_scene()->set_name("broken");
+  spec.mutable_scene_files()->mutable_scene()->mutable_garment()->set_rest("broken.obj");
+  st = service.Create(spec, &ignored);
+  EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(st.error_message().find("spec.scene_files.scene.garment.rest: 'broken.obj'"), std::string::npos)
+      << st.error_message();
+
+  // A spec that validates but whose scene cannot be built fails with the worker's reason, once.
+  (*spec.mutable_scene_files()->mutable_files())["broken.obj"] = "v 0 0 0\nv 1 0 0\nf 1 2 3\n";
   v1::Job broken;
   ASSERT_TRUE(service.Create(spec, &broken).ok());
 
@@ -508,7 +516,7 @@ TEST(Service, BadRequestsGetClearErrorsAndLeaveRunningJobsAlone) {
   const v1::Job failed = service.Get(broken.id());
   EXPECT_EQ(failed.state(), v1::FAILED);
   EXPECT_EQ(failed.attempts(), 1);
-  EXPECT_NE(failed.failure().find("missing.obj"), std::string::npos) << failed.failure();
+  EXPECT_NE(failed.failure().find("broken.obj"), std::string::npos) << failed.failure();
 }
 
 // SIGTERM drains: the running job stops after its iteration, goes back to the queue, and a restarted

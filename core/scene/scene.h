@@ -1,5 +1,7 @@
 // Scenes: everything one simulation needs, as a plain description (SceneSpec), loaded from and
-// exported to a JSON scene file with meshes and index lists beside it.
+// exported to a JSON scene file with meshes and index lists beside it. The file is the JSON form of
+// the kgd.v1.Scene message (proto/kgd/v1/kgd.proto), the schema the service shares; this loader reads
+// it without protobuf and checks what a schema cannot, and proto/job_spec_test keeps the two in step.
 //
 // Scene file (all keys optional unless marked; unknown keys are errors; units SI):
 // {

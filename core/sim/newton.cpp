@@ -1,8 +1,12 @@
 // Projected Newton for Simulator (see simulator.h).
+#include <dlfcn.h>
+#include <omp.h>
+
 #include <Eigen/CholmodSupport>
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <mutex>
 
 #include "core/sim/simulator.h"
 
@@ -26,6 +30,39 @@ void AddFree(const Eigen::VectorXd& step, double alpha, const std::vector<int>& 
   for (size_t d = 0; d < free_index.size(); ++d)
     if (free_index[d] >= 0) data[d] += alpha * step[free_index[d]];
 }
+
+// Our factors have thousands of small supernodes (fronts of tens to a few hundred rows). On them
+// threading costs more than it gives: OpenBLAS's idle threads spin in sched_yield, and CHOLMOD 3.0
+// (SuiteSparse 5.12) opens an OpenMP team of a compiled-in 4 threads for every supernode it zeroes,
+// whatever OMP_NUM_THREADS says. On 2 cores the two fight: on the 7k-vertex sleeve a factorization
+// took 120 ms, half of it in the kernel; serial it takes ~55 ms (docs/PERFORMANCE.md). Serial BLAS
+// also makes results independent of the machine's core count.
+void UseSerialBlas() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    // Looked up, not linked: the BLAS behind libblas.so.3 may be another implementation.
+    using SetThreads = void (*)(int);
+    if (auto set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(1);
+  });
+}
+
+// Makes CHOLMOD's OpenMP regions run on the calling thread while alive. The ICV is process-wide in
+// libgomp, so it is restored to the value seen at first use rather than to what this scope found
+// (concurrent solves in one worker could otherwise leave it at 0 for good).
+class SerialOpenMpScope {
+ public:
+  SerialOpenMpScope() {
+    static const int initial = omp_get_max_active_levels();
+    restore_ = initial;
+    omp_set_max_active_levels(0);
+  }
+  ~SerialOpenMpScope() { omp_set_max_active_levels(restore_); }
+  SerialOpenMpScope(const SerialOpenMpScope&) = delete;
+  SerialOpenMpScope& operator=(const SerialOpenMpScope&) = delete;
+
+ private:
+  int restore_ = 1;
+};
 
 }  // namespace
 
@@ -55,6 +92,7 @@ struct Simulator::Newton {
 
 Simulator::Simulator(GarmentSystem* system) : system_(system), newton_(std::make_unique<Newton>()) {
   newton_->llt.cholmod().print = 0;  // failures are reported through SolveReport, not stderr
+  UseSerialBlas();
   newton_->H = system_->hessian_pattern();
 }
 
@@ -183,7 +221,10 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
         bool ok = false;
         for (int tries = 0; tries < 12; ++tries) {
           nt.llt.setShift(delta);
-          nt.llt.factorize(nt.H);
+          {
+            SerialOpenMpScope serial;
+            nt.llt.factorize(nt.H);
+          }
           ++rep.factorizations;
           if (nt.llt.info() == Eigen::Success) { ok = true; break; }
           delta *= 10.0;
