@@ -305,8 +305,19 @@ class PosedField {
         if (prims_[i].p.bone == kThighL || prims_[i].p.bone == kThighR) k += 0.06 * (1.0 - std::cos(Eigen::AngleAxisd(t[kPelvis].linear().transpose() * t[prims_[i].p.bone].linear()).angle()));
         group_blend_.push_back(k * s);
       }
-      const double k = groups_[g].empty() ? 0.0 : ChainBlend(t[prims_[groups_[g].back().first].p.bone], t[prims_[i].p.bone]) * s;
-      groups_[g].emplace_back(static_cast<int>(i), k);
+      ChainLink link;
+      if (!groups_[g].empty()) {
+        const Prim& prev = prims_[groups_[g].back().index];
+        link.blend = ChainBlend(t[prev.p.bone], t[prims_[i].p.bone]) * s;
+        // Posed joint and the bisector of the joint's concave side: where the fillet belongs.
+        link.joint = t[prims_[i].p.bone] * prims_[i].p.a;
+        const V3 toward = t[prev.p.bone].linear() * (prev.p.b - prev.p.a).normalized();
+        const V3 away = t[prims_[i].p.bone].linear() * (prims_[i].p.b - prims_[i].p.a).normalized();
+        const V3 inner = away - toward;
+        link.inner = inner.norm() > 1e-9 ? V3(inner.normalized()) : V3::Zero();
+      }
+      link.index = static_cast<int>(i);
+      groups_[g].push_back(link);
     }
   }
   double operator()(const V3& x) const {
@@ -314,10 +325,10 @@ class PosedField {
     for (size_t g = 0; g < groups_.size(); ++g) {
       double gv = 0;
       for (size_t m = 0; m < groups_[g].size(); ++m) {
-        const int i = groups_[g][m].first;
-        const Prim& p = prims_[i];
-        const double v = PrimitiveValue(p.p, p.cap_a, p.cap_b, bulge_[i], inverse_[i] * x);
-        gv = m == 0 ? v : SmoothMin(gv, v, groups_[g][m].second);
+        const ChainLink& link = groups_[g][m];
+        const Prim& p = prims_[link.index];
+        const double v = PrimitiveValue(p.p, p.cap_a, p.cap_b, bulge_[link.index], inverse_[link.index] * x);
+        gv = m == 0 ? v : SmoothMin(gv, v, link.blend * ConcaveWeight(link, x));
       }
       f = g == 0 ? gv : SmoothMin(f, gv, group_blend_[g]);
     }
@@ -336,17 +347,30 @@ class PosedField {
   }
   // Tangential smoothing on the level set: each active vertex moves halfway to its neighbours' mean,
   // within the tangent plane, and is projected back. Evens out triangle sizes and unfolds pinches.
-  void Relax(Positions* x, const std::vector<std::vector<int>>& nbrs, const std::vector<int>& active, int iterations) const {
+  // With `rest`, each vertex moves instead towards where its edges would have their rest lengths
+  // (a spring relaxation): the skin keeps its metric where it slides, rather than evening out
+  // triangle sizes, which stretches compressed skin sideways.
+  void Relax(Positions* x, const std::vector<std::vector<int>>& nbrs, const std::vector<int>& active, int iterations,
+             const Positions* rest = nullptr) const {
     Positions next = *x;
     for (int it = 0; it < iterations; ++it) {
 #pragma omp parallel for schedule(static)
       for (size_t i = 0; i < active.size(); ++i) {
         const int v = active[i];
         if (nbrs[v].empty()) continue;
-        V3 mean = V3::Zero();
-        for (int w : nbrs[v]) mean += x->row(w).transpose();
-        mean /= static_cast<double>(nbrs[v].size());
         const V3 p = x->row(v).transpose();
+        V3 mean = V3::Zero();
+        for (int w : nbrs[v]) {
+          const V3 q = x->row(w).transpose();
+          if (rest == nullptr) {
+            mean += q;
+            continue;
+          }
+          const V3 e = p - q;
+          const double len = e.norm();
+          mean += len > 1e-12 ? V3(q + (rest->row(v) - rest->row(w)).norm() / len * e) : p;
+        }
+        mean /= static_cast<double>(nbrs[v].size());
         V3 n = Gradient(p);
         if (n.norm() < 1e-9) continue;
         n.normalize();
@@ -390,7 +414,25 @@ class PosedField {
   std::vector<Prim> prims_;
   std::vector<Eigen::Isometry3d> inverse_;
   std::vector<double> bulge_;
-  std::vector<std::vector<std::pair<int, double>>> groups_;
+  // A chain member: its primitive and the fillet joining it to the previous member.
+  struct ChainLink {
+    int index = 0;
+    double blend = 0;            // fillet radius (m) at the concave side
+    V3 joint = V3::Zero();       // posed joint centre
+    V3 inner = V3::Zero();       // unit bisector of the concave side; zero for a straight joint
+  };
+  // The fillet is confined to the concave side of a bent joint. A blend radius applied all around
+  // would swell the joint: where two round cones overlap, smooth-min pushes the surface out by up to
+  // a quarter of the radius on every side, and a sleeve over a bent elbow would be stretched 30-40 %
+  // around its circumference (the MakeHuman elbow: ~0 %).
+  static double ConcaveWeight(const ChainLink& link, const V3& x) {
+    const V3 d = x - link.joint;
+    const double n = d.norm();
+    if (n < 1e-12) return 1.0;
+    const double c = link.inner.dot(d) / n;
+    return std::max(0.0, c) * std::max(0.0, c);
+  }
+  std::vector<std::vector<ChainLink>> groups_;
   std::vector<std::string> group_names_;
   std::vector<double> group_blend_;
 };
@@ -624,6 +666,9 @@ Positions Skin(const ParametricBody& body, const std::array<Eigen::Isometry3d, k
   return out;
 }
 
+const double kSkinRelaxStrain = 0.05;
+const int kSkinRelaxIterations = 40;
+
 // Where the skin is compressed (inside of a bent joint) projection can fold triangles over; relax the
 // folded patches on the surface until none is left, as skin slides over the flesh there. The relaxed
 // patch only grows: compression spread over a wider band needs no fold.
@@ -660,6 +705,32 @@ void RepairFolds(const ParametricBody& body, const PosedField& field, const std:
     for (Eigen::Index f = 0; f < faces.rows(); ++f)
       if (mark[faces(f, 0)] || mark[faces(f, 1)] || mark[faces(f, 2)]) candidates.push_back(static_cast<int>(f));
   }
+}
+
+// Skinning and projection leave the skin of a bent joint unevenly stretched: at the inside of the
+// elbow the projection spreads the skin sideways (1.5-2.2x around the arm). Real skin slides over the
+// flesh towards its own metric; a spring relaxation on the surface of the skin that is stretched or
+// compressed does the same, anchored by the skin around it that moved rigidly.
+void RelaxSkinMetric(const ParametricBody& body, const PosedField& field, const std::vector<std::vector<int>>& nbrs, Positions* x) {
+  const Eigen::Index nv = x->rows();
+  const Positions& rest = body.rest.vertices;
+  std::vector<char> mark(nv, 0);
+  for (Eigen::Index v = 0; v < nv; ++v)
+    for (int w : nbrs[v]) {
+      const double ratio = (x->row(v) - x->row(w)).norm() / (rest.row(v) - rest.row(w)).norm();
+      if (std::abs(ratio - 1.0) > kSkinRelaxStrain) mark[v] = 1;
+    }
+  for (int ring = 0; ring < 2; ++ring) {
+    std::vector<char> grown = mark;
+    for (Eigen::Index v = 0; v < nv; ++v)
+      if (mark[v])
+        for (int w : nbrs[v]) grown[w] = 1;
+    mark.swap(grown);
+  }
+  std::vector<int> active;
+  for (Eigen::Index v = 0; v < nv; ++v)
+    if (mark[v]) active.push_back(static_cast<int>(v));
+  if (!active.empty()) field.Relax(x, nbrs, active, kSkinRelaxIterations, &rest);
 }
 
 }  // namespace
@@ -704,6 +775,11 @@ Result<std::vector<Positions>> PoseSequence(const ParametricBody& body, const st
       const Eigen::Index nv = x.rows();
 #pragma omp parallel for schedule(static)
       for (Eigen::Index v = 0; v < nv; ++v) x.row(v) = field.Project(x.row(v).transpose()).transpose();
+      RepairFolds(body, field, nbrs, &x);
+    }
+    {
+      const PosedField field(body, target);
+      RelaxSkinMetric(body, field, nbrs, &x);
       RepairFolds(body, field, nbrs, &x);
     }
     for (Eigen::Index v = 0; v < x.rows(); ++v)
