@@ -106,7 +106,9 @@ TEST(ParametricBody, BentJointsKeepTheirGirth) {
     const double bent = LimbGirth(b, flexed, *p, kForearmR, t);
     std::printf("forearm girth at t = %.2f: %.1f -> %.1f mm\n", t, 1e3 * rest, 1e3 * bent);
     EXPECT_GT(bent, 0.85 * rest) << "forearm at t = " << t;
-    if (t == 0.5) EXPECT_NEAR(bent, rest, 0.02 * rest) << "forearm at t = " << t;
+    if (t == 0.5) {
+      EXPECT_NEAR(bent, rest, 0.02 * rest) << "forearm at t = " << t;
+    }
   }
 }
 

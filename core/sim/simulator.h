@@ -5,9 +5,9 @@
 //    CHOLMOD supernodal Cholesky with the symbolic analysis done once per Simulator, backtracking
 //    Armijo line search on E, adaptive Levenberg-Marquardt damping H + delta I that shrinks after full
 //    steps and vanishes at convergence (it guards the singular modes: slack triangles, sliding on the
-//    body, free translations) and carries over to warm re-solves, and reuse of the previous
-//    factorization as a preconditioner for conjugate gradients when the Hessian has changed little
-//    (warm re-solves after a design change).
+//    body, free translations) and carries over to warm re-solves, and (optional,
+//    SolverSettings::reuse_factorization) reuse of the previous factorization as a preconditioner for
+//    conjugate gradients when the Hessian has changed little.
 //  - kLbfgs: L-BFGS with a strong Wolfe line search, the paper's method, for comparison.
 //
 // Convergence (scale-aware): || dE/dx over free coordinates ||_2 <= tolerance_N, with
@@ -52,7 +52,12 @@ struct SolverSettings {
   SolverMethod method = SolverMethod::kNewton;
   double grad_tol = 1e-4;
   int max_iterations = 0;           // 0: 200 for Newton, 50000 for L-BFGS
-  bool reuse_factorization = true;  // Newton: try PCG preconditioned by the last factorization first
+  // Newton: try PCG preconditioned by the last factorization before factorizing. Off by default: on the
+  // relaxed garment-on-body scenes the Hessian moves too much between steps (regimes switch, contact
+  // changes), the PCG attempts fail and are wasted, and a BESO iteration took 0.84 s with them against
+  // 0.59 s without (arm flexion, docs/PERFORMANCE.md). On smooth problems (bilateral contact, no
+  // relaxation) reuse re-solves without any factorization.
+  bool reuse_factorization = false;
   int max_pcg_iterations = 25;
   int lbfgs_history = 20;
   std::function<void(const IterationInfo&)> on_iteration;  // optional
