@@ -669,6 +669,24 @@ Positions Skin(const ParametricBody& body, const std::array<Eigen::Isometry3d, k
 const double kSkinRelaxStrain = 0.05;
 const int kSkinRelaxIterations = 40;
 
+// Marks every vertex within `rings` edges of a marked one.
+void GrowMarks(const std::vector<std::vector<int>>& nbrs, int rings, std::vector<char>* mark) {
+  for (int ring = 0; ring < rings; ++ring) {
+    std::vector<char> grown = *mark;
+    for (size_t v = 0; v < mark->size(); ++v)
+      if ((*mark)[v])
+        for (int w : nbrs[v]) grown[w] = 1;
+    mark->swap(grown);
+  }
+}
+
+std::vector<int> MarkedVertices(const std::vector<char>& mark) {
+  std::vector<int> active;
+  for (size_t v = 0; v < mark.size(); ++v)
+    if (mark[v]) active.push_back(static_cast<int>(v));
+  return active;
+}
+
 // Where the skin is compressed (inside of a bent joint) projection can fold triangles over; relax the
 // folded patches on the surface until none is left, as skin slides over the flesh there. The relaxed
 // patch only grows: compression spread over a wider band needs no fold.
@@ -690,17 +708,8 @@ void RepairFolds(const ParametricBody& body, const PosedField& field, const std:
     else if (++stalled >= 5) break;
     for (int f : folded)
       for (int k = 0; k < 3; ++k) mark[faces(f, k)] = 1;
-    for (int ring = 0; ring < (round == 0 ? 2 : 1); ++ring) {
-      std::vector<char> grown = mark;
-      for (Eigen::Index v = 0; v < nv; ++v)
-        if (mark[v])
-          for (int w : nbrs[v]) grown[w] = 1;
-      mark.swap(grown);
-    }
-    std::vector<int> active;
-    for (Eigen::Index v = 0; v < nv; ++v)
-      if (mark[v]) active.push_back(static_cast<int>(v));
-    field.Relax(x, nbrs, active, 6);
+    GrowMarks(nbrs, round == 0 ? 2 : 1, &mark);
+    field.Relax(x, nbrs, MarkedVertices(mark), 6);
     candidates.clear();
     for (Eigen::Index f = 0; f < faces.rows(); ++f)
       if (mark[faces(f, 0)] || mark[faces(f, 1)] || mark[faces(f, 2)]) candidates.push_back(static_cast<int>(f));
@@ -720,16 +729,8 @@ void RelaxSkinMetric(const ParametricBody& body, const PosedField& field, const 
       const double ratio = (x->row(v) - x->row(w)).norm() / (rest.row(v) - rest.row(w)).norm();
       if (std::abs(ratio - 1.0) > kSkinRelaxStrain) mark[v] = 1;
     }
-  for (int ring = 0; ring < 2; ++ring) {
-    std::vector<char> grown = mark;
-    for (Eigen::Index v = 0; v < nv; ++v)
-      if (mark[v])
-        for (int w : nbrs[v]) grown[w] = 1;
-    mark.swap(grown);
-  }
-  std::vector<int> active;
-  for (Eigen::Index v = 0; v < nv; ++v)
-    if (mark[v]) active.push_back(static_cast<int>(v));
+  GrowMarks(nbrs, 2, &mark);
+  const std::vector<int> active = MarkedVertices(mark);
   if (!active.empty()) field.Relax(x, nbrs, active, kSkinRelaxIterations, &rest);
 }
 
