@@ -43,6 +43,7 @@ void BM_NewtonCold(benchmark::State& state) {
   GarmentSystem sys(std::move(model).value(), s.initial);
   SolverSettings settings;
   settings.grad_tol = GradTol(state, 1);
+  settings.project_contact_crossings = state.range(2) != 0;
   SolveReport r;
   for (auto _ : state) {
     Simulator sim(&sys);
@@ -54,8 +55,8 @@ void BM_NewtonCold(benchmark::State& state) {
   state.counters["vertices"] = sys.num_vertices();
 }
 BENCHMARK(BM_NewtonCold)
-    ->ArgsProduct({{0, 1}, {4, 5, 6}})
-    ->ArgNames({"reinforced", "tol_exp"})
+    ->ArgsProduct({{0, 1}, {4, 5, 6}, {1, 0}})
+    ->ArgNames({"reinforced", "tol_exp", "project"})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
 
@@ -70,6 +71,7 @@ void BM_WarmResolve(benchmark::State& state) {
   SolverSettings settings;
   settings.method = state.range(0) == 2 ? SolverMethod::kLbfgs : SolverMethod::kNewton;
   settings.reuse_factorization = state.range(0) == 0;
+  settings.project_contact_crossings = state.range(0) != 3;
   settings.grad_tol = GradTol(state, 1);
   Positions x = s.initial;
   sim.Solve(&x, settings);
@@ -104,9 +106,10 @@ void BM_WarmResolve(benchmark::State& state) {
   state.counters["failures"] = failures;
   state.counters["last_energy_J"] = energy;
 }
-// method: 0 Newton reusing factorizations, 1 Newton factorizing every step, 2 L-BFGS.
+// method: 0 Newton reusing factorizations, 1 Newton factorizing every step (the default), 2 L-BFGS,
+// 3 as 1 without the line search's contact projection (SolverSettings::project_contact_crossings).
 BENCHMARK(BM_WarmResolve)
-    ->ArgsProduct({{0, 1, 2}, {4, 6}})
+    ->ArgsProduct({{0, 1, 2, 3}, {4, 6}})
     ->ArgNames({"method", "tol_exp"})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(20);

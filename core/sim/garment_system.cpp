@@ -402,11 +402,37 @@ Eigen::VectorXd GarmentSystem::VertexPhi(const Positions& x) {
   Eigen::VectorXd phi = Eigen::VectorXd::Constant(num_vertices(), std::numeric_limits<double>::quiet_NaN());
   if (!model_.body) return phi;
   if (caches_.empty()) caches_.resize(num_vertices());
+#pragma omp parallel for schedule(static)
   for (int v = 0; v < num_vertices(); ++v) {
     const FieldSample s = model_.body->Evaluate(x.row(v).transpose(), &caches_[v], false, false);
     if (s.supported) phi[v] = s.phi_m;
   }
   return phi;
+}
+
+int GarmentSystem::ProjectCrossingsOntoBody(const Eigen::VectorXd& phi_from, Positions* trial) {
+  if (model_.effects.contact != ContactModel::kUnilateral || !model_.body) return 0;
+  if (caches_.empty()) caches_.resize(num_vertices());
+  const double target = -kProjectionDepth_m;
+  int moved = 0;
+#pragma omp parallel for schedule(static) reduction(+ : moved)
+  for (int v = 0; v < num_vertices(); ++v) {
+    if (!(phi_from[v] >= 0)) continue;  // in contact (the Hessian knows) or unsupported (NaN)
+    if (free_index_[3 * v] < 0 || free_index_[3 * v + 1] < 0 || free_index_[3 * v + 2] < 0) continue;
+    Eigen::Vector3d y = trial->row(v).transpose();
+    FieldSample s = model_.body->Evaluate(y, &caches_[v], true, false);
+    if (!s.supported || s.phi_m >= 2 * target) continue;
+    for (int k = 0; k < 4 && s.supported && std::abs(s.phi_m - target) > 0.5 * kProjectionDepth_m; ++k) {
+      const double g2 = s.grad.squaredNorm();
+      if (!(g2 > 1e-12)) break;
+      y -= ((s.phi_m - target) / g2) * s.grad;
+      s = model_.body->Evaluate(y, &caches_[v], true, false);
+    }
+    if (!y.allFinite()) continue;
+    trial->row(v) = y.transpose();
+    ++moved;
+  }
+  return moved;
 }
 
 Eigen::Vector3d GarmentSystem::ClampReaction(int clamp, const Eigen::VectorXd& gradient) const {

@@ -131,6 +131,16 @@ class GarmentSystem {
   // Phi at each vertex (m); NaN where the field has no support. Requires contact.
   Eigen::VectorXd VertexPhi(const Positions& x);
 
+  // Unilateral contact only (otherwise returns 0 and leaves `trial` alone). A Newton step models a
+  // vertex that is off the body with no contact stiffness, so it may carry it deep into the body; the
+  // penalty's energy then cuts the whole step to a sliver (a wasted factorization). This moves every
+  // fully free vertex that was off the body at the step's start (phi_from >= 0, from VertexPhi) and is
+  // inside it at `trial` back to just inside the surface (Phi = -kProjectionDepth, a few Newton
+  // iterations on Phi), where the next Hessian sees its contact stiffness. Vertices already in contact
+  // are modelled by the Hessian and left alone. Returns the number of vertices moved.
+  static constexpr double kProjectionDepth_m = 1e-10;
+  int ProjectCrossingsOntoBody(const Eigen::VectorXd& phi_from, Positions* trial);
+
   // Force the clamp exerts on the garment at x (N): the sum of dE/dx over its vertices.
   Eigen::Vector3d ClampReaction(int clamp, const Eigen::VectorXd& gradient) const;
 

@@ -164,6 +164,64 @@ TEST(GarmentSystem, FrictionGradientMatchesFiniteDifferencesAndNeedsContactForce
   EXPECT_NE(refused.message().find("effects.friction needs contact"), std::string::npos) << refused.message();
 }
 
+// The line search's projection: a vertex that a trial step carries from off the body into it goes back
+// to just inside the surface; vertices already in contact, clamped vertices, and the other contact models
+// are left alone.
+TEST(GarmentSystem, ProjectCrossingsOntoBodyMovesOnlyTheVerticesThatCrossed) {
+  SleeveOptions o;
+  o.around = 12;
+  o.sleeve_halflength_m = 0.05;
+  o.contact = ContactModel::kUnilateral;
+  SceneSpec s = SleeveOnLimbScene(o);
+  s.effects.clamps = true;
+  Clamp c;
+  c.name = "pin";
+  c.vertices = {0, 1};
+  c.axes = {true, true, true};
+  s.clamps = {c};
+  auto model = BuildGarmentModel(s);
+  ASSERT_TRUE(model.ok()) << model.message();
+  GarmentSystem sys(std::move(model).value(), s.initial);
+  Positions out = AreaWeightedVertexNormals(s.initial, s.garment.faces);
+  auto inside = [&](const Positions& p) { return (sys.VertexPhi(p).array() < 0).count(); };
+  if (inside(s.initial + 2e-3 * out) > inside(s.initial - 2e-3 * out)) out = -out;
+  // This sleeve starts 1-3 mm inside the limb. A step from 4 mm further out (every third vertex from
+  // where it is, inside) to there.
+  Positions from = s.initial + 4e-3 * out;
+  for (Eigen::Index v = 0; v < from.rows(); v += 3) from.row(v) = s.initial.row(v);
+  const Positions step_end = s.initial;
+  const Eigen::VectorXd phi_from = sys.VertexPhi(from);
+  const Eigen::VectorXd phi_end = sys.VertexPhi(step_end);
+  Positions trial = step_end;
+  const int moved = sys.ProjectCrossingsOntoBody(phi_from, &trial);
+  const Eigen::VectorXd phi = sys.VertexPhi(trial);
+  int expected = 0;
+  for (Eigen::Index v = 0; v < trial.rows(); ++v) {
+    const bool clamped = v <= 1;
+    const bool crossed = phi_from[v] >= 0 && phi_end[v] < -2 * GarmentSystem::kProjectionDepth_m;
+    if (crossed && !clamped) {
+      ++expected;
+      EXPECT_LT(phi[v], 0.0) << "vertex " << v;
+      EXPECT_GT(phi[v], -2 * GarmentSystem::kProjectionDepth_m) << "vertex " << v;
+      // Moved along the field's normal, by about the depth it had crossed.
+      EXPECT_NEAR((trial.row(v) - step_end.row(v)).norm(), -phi_end[v], 0.2 * -phi_end[v]) << "vertex " << v;
+    } else {
+      EXPECT_EQ(trial.row(v), step_end.row(v)) << "vertex " << v;
+    }
+  }
+  EXPECT_EQ(moved, expected);
+  EXPECT_GT(expected, trial.rows() / 3) << "the test must exercise crossings";
+  // Bilateral contact keeps vertices on the surface from both sides: nothing to project.
+  SceneSpec b = s;
+  b.effects.contact = ContactModel::kBilateral;
+  auto bmodel = BuildGarmentModel(b);
+  ASSERT_TRUE(bmodel.ok());
+  GarmentSystem bsys(std::move(bmodel).value(), b.initial);
+  Positions btrial = step_end;
+  EXPECT_EQ(bsys.ProjectCrossingsOntoBody(phi_from, &btrial), 0);
+  EXPECT_EQ(btrial, step_end);
+}
+
 TEST(GarmentSystem, WithoutContactNoBodyFieldIsBuilt) {
   const long before = BodyField::BuildCount();
   auto pull = PullTestScene("line");

@@ -154,6 +154,9 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
     nt.solves_since_probe = 0;
   }
   bool skip_pcg = false;
+  const bool project_crossings =
+      settings.project_contact_crossings && sys.model().effects.contact == ContactModel::kUnilateral;
+  Eigen::VectorXd phi_from;  // Phi at *x, taken at the first line search from it
   Positions trial;
   Eigen::VectorXd g_trial_full;
 
@@ -255,8 +258,10 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       AddFree(p, 1.0, free_index, *x, &trial);
       trial -= *x;
       alpha = sys.MaxFoldSafeStep(*x, trial);
+      if (project_crossings && phi_from.size() == 0) phi_from = sys.VertexPhi(*x);
       for (int ls = 0; ls < 40; ++ls, alpha *= 0.5) {
         AddFree(p, alpha, free_index, *x, &trial);
+        if (project_crossings) sys.ProjectCrossingsOntoBody(phi_from, &trial);
         E_new = sys.Evaluate(trial, nullptr, nullptr);
         ++rep.energy_evaluations;
         if (E_new <= E + 1e-4 * alpha * slope) { accepted = true; break; }
@@ -293,6 +298,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       return rep;
     }
     x->swap(trial);
+    phi_from.resize(0);
     t = Clock::now();
     E = sys.Evaluate(*x, &g_full, &nt.H, &rep.energies);
     rep.assembly_s += Seconds(t, Clock::now());
