@@ -217,8 +217,7 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
   exp->add_option("dir", *dir, "Output directory")->required();
   exp->add_option("--body", *body, "A measurement of the parametric body, name=value in SI (repeatable)");
   exp->callback([name, dir, body, exit_code] {
-    Result<SceneSpec> s = ResolveScene(*name, *body);
-    if (s.ok() && std::filesystem::exists(*name)) s = Status::Error(*name + ": not a built-in scene name");
+    Result<SceneSpec> s = ResolveBuiltinScene(*name, *body);
     Status st = s.ok() ? ExportScene(*s, *dir) : s.status();
     if (!st.ok()) {
       std::cerr << "kgd scene export: " << st.message() << "\n";

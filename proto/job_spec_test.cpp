@@ -169,7 +169,8 @@ TEST(SceneSchema, TheSchemaAndTheLoaderKnowTheSameKeys) {
     "attachments": {"faces": "a.txt", "stiffness_N_per_m": 3000},
     "clamps": [{"name": "c", "vertices": {"box_min": [0, 0, 0], "box_max": [1, 1, 1]}, "axes": "z", "displacement_m": [0, 0, 0.01]},
                {"vertices": [3, 4]}],
-    "solver": {"method": "lbfgs", "grad_tol": 1e-6, "max_iterations": 50, "reuse_factorization": false, "lbfgs_history": 10}})";
+    "solver": {"method": "lbfgs", "grad_tol": 1e-6, "max_iterations": 50, "reuse_factorization": false, "lbfgs_history": 10,
+               "project_contact_crossings": false}})";
   const char* cut = R"({"garment": {"region": [0, 1, 2], "subdivisions": 1, "design": "all_cloth"},
     "body": {"rest": "r.obj", "deformed": "d.obj", "frames": ["f1.obj", "f2.obj"]},
     "attachments": {"body_faces": "ab.txt"}})";

@@ -109,6 +109,12 @@ class Reader {
 }  // namespace
 
 Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* files_read) {
+  // A stream on a folder opens and then throws on the first read.
+  std::error_code ec;
+  if (fs::is_directory(path, ec))
+    return Status::Error(path + ": is a folder, not a scene file (for a scene exported there, pass " +
+                         (fs::path(path) / "scene.json").string() +
+                         "; a built-in scene's name must not also name a file or folder in the working directory)");
   std::ifstream in(path);
   if (!in) return Status::Error(path + ": cannot open scene file");
   json doc;
@@ -347,7 +353,8 @@ Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* f
   // Solver.
   if (doc.contains("solver")) {
     const json& so = doc["solver"];
-    KGD_RETURN_IF_ERROR(r.CheckKeys(so, "solver", {"method", "grad_tol", "max_iterations", "reuse_factorization", "lbfgs_history"}));
+    KGD_RETURN_IF_ERROR(r.CheckKeys(so, "solver", {"method", "grad_tol", "max_iterations", "reuse_factorization", "lbfgs_history",
+                                                   "project_contact_crossings"}));
     std::string method = "newton";
     KGD_RETURN_IF_ERROR(r.Choice(so, "solver", "method", {"newton", "lbfgs"}, &method));
     s.solver.method = method == "newton" ? SolverMethod::kNewton : SolverMethod::kLbfgs;
@@ -361,6 +368,7 @@ Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* f
     s.solver.max_iterations = static_cast<int>(it);
     s.solver.lbfgs_history = static_cast<int>(hist);
     KGD_RETURN_IF_ERROR(r.Bool(so, "solver", "reuse_factorization", &s.solver.reuse_factorization));
+    KGD_RETURN_IF_ERROR(r.Bool(so, "solver", "project_contact_crossings", &s.solver.project_contact_crossings));
   }
 
   // Whole-model checks (materials, clamp indices, ...) with the scene file as context.
@@ -539,7 +547,8 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
                    {"grad_tol", s.solver.grad_tol},
                    {"max_iterations", s.solver.max_iterations},
                    {"reuse_factorization", s.solver.reuse_factorization},
-                   {"lbfgs_history", s.solver.lbfgs_history}};
+                   {"lbfgs_history", s.solver.lbfgs_history},
+                   {"project_contact_crossings", s.solver.project_contact_crossings}};
   std::ofstream out(dir / "scene.json");
   if (!out) return Status::Error((dir / "scene.json").string() + ": cannot open for writing");
   out << doc.dump(2) << '\n';
@@ -702,7 +711,13 @@ Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::st
   }
   if (arg.find('/') != std::string::npos || (arg.size() > 5 && arg.substr(arg.size() - 5) == ".json"))
     return Status::Error(arg + ": no such scene file");
-  return *body ? BuiltinScene(arg, **body) : BuiltinScene(arg);
+  return ResolveBuiltinScene(arg, body_items);
+}
+
+Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector<std::string>& body_items) {
+  Result<std::optional<BodyMeasurements>> body = ParseBodyMeasurements(body_items);
+  if (!body.ok()) return body.status();
+  return *body ? BuiltinScene(name, **body) : BuiltinScene(name);
 }
 
 

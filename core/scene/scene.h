@@ -32,7 +32,7 @@
 //   "clamps": [{"name": "moving", "vertices": "moving.txt" | [..] | {"box_min": [x,y,z], "box_max": [x,y,z]},
 //               "axes": "xyz", "displacement_m": [0, 0, 0.01]}],
 //   "solver": {"method": "newton" | "lbfgs", "grad_tol": 1e-7, "max_iterations": 200,
-//              "reuse_factorization": false, "lbfgs_history": 20}
+//              "reuse_factorization": false, "lbfgs_history": 20, "project_contact_crossings": true}
 // }
 // Attachment anchors are the centroids of the attached faces on the body in the simulated pose (for a
 // garment of its own: in the initial positions). Clamp boxes select vertices by rest position.
@@ -96,6 +96,9 @@ Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* f
 // A scene argument: a scene file if it exists, else the name of a built-in scene (on a parametric body
 // made to the `name=value` measurements `body_items`, when given).
 Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items = {});
+
+// A built-in scene by name only (`kgd scene export`): files and folders of the same name are ignored.
+Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector<std::string>& body_items = {});
 
 // Writes `spec` as DIR/scene.json plus meshes (OBJ) and index lists; creates DIR if needed.
 Status ExportScene(const SceneSpec& spec, const std::string& dir);

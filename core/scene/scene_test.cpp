@@ -22,10 +22,12 @@ TEST(Scene, ExportThenLoadReproducesTheBuiltinResult) {
     auto builtin = BuiltinScene(name);
     ASSERT_TRUE(builtin.ok());
     builtin->solver.grad_tol = 1e-8;  // compare equilibria, not solver stopping points
+    builtin->solver.project_contact_crossings = false;  // not the default: the file must carry it
     const std::string dir = TempDir(name);
     ASSERT_TRUE(ExportScene(*builtin, dir).ok());
     auto loaded = LoadScene(dir + "/scene.json");
     ASSERT_TRUE(loaded.ok()) << loaded.message();
+    EXPECT_FALSE(loaded->solver.project_contact_crossings);
     EXPECT_EQ(loaded->design, builtin->design);
     EXPECT_EQ(loaded->attachment_faces, builtin->attachment_faces);
     EXPECT_EQ(loaded->clamps.size(), builtin->clamps.size());
@@ -35,6 +37,27 @@ TEST(Scene, ExportThenLoadReproducesTheBuiltinResult) {
     // OBJ stores 9 significant digits, so agreement is to that precision, not bitwise.
     EXPECT_NEAR(a->solve.energy_J, b->solve.energy_J, 1e-6 * std::abs(a->solve.energy_J)) << name;
   }
+}
+
+// A folder where a scene file or a built-in name is expected (e.g. one written by `kgd scene export`
+// under the scene's own name) is a clear error, not a crash; asked for a built-in by name only, the
+// folder is ignored.
+TEST(Scene, AFolderIsNotASceneFile) {
+  const std::filesystem::path dir = TempDir("folder_arg");
+  std::filesystem::create_directories(dir / "pull_test_x");
+  const std::filesystem::path cwd = std::filesystem::current_path();
+  std::filesystem::current_path(dir);
+  const Result<SceneSpec> as_file = LoadScene("pull_test_x");
+  const Result<SceneSpec> resolved = ResolveScene("pull_test_x");
+  const Result<SceneSpec> builtin = ResolveBuiltinScene("pull_test_x");
+  std::filesystem::current_path(cwd);
+  for (const Result<SceneSpec>* r : {&as_file, &resolved}) {
+    ASSERT_FALSE(r->ok());
+    EXPECT_NE(r->message().find("pull_test_x: is a folder, not a scene file"), std::string::npos) << r->message();
+    EXPECT_NE(r->message().find("scene.json"), std::string::npos) << r->message();
+  }
+  ASSERT_TRUE(builtin.ok()) << builtin.message();
+  EXPECT_GT(builtin->garment.faces.rows(), 0);
 }
 
 TEST(Scene, PullTestDesignsHaveTheirPaperAreas) {
