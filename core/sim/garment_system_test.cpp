@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <array>
 #include <random>
 
 #include "core/scene/scene.h"
@@ -16,20 +17,38 @@ struct Fixture {
   Positions x;
 };
 
-Fixture MakeSystem(ContactModel contact, Relaxation relax) {
+// A small sleeve on the limb: 12 vertices around, 10 cm long.
+SceneSpec SmallSleeve(ContactModel contact) {
   SleeveOptions o;
   o.around = 12;
   o.sleeve_halflength_m = 0.05;
   o.contact = contact;
-  SceneSpec s = SleeveOnLimbScene(o);
-  s.effects.relaxation = relax;
-  for (size_t f = 0; f < s.design.size(); f += 3) s.design[f] = kReinforced;
-  s.effects.clamps = true;
+  return SleeveOnLimbScene(o);
+}
+
+// Clamps vertices 0 and 1 on `axes`.
+void PinFirstTwoVertices(SceneSpec* s, std::array<bool, 3> axes) {
+  s->effects.clamps = true;
   Clamp c;
   c.name = "pin";
   c.vertices = {0, 1};
-  c.axes = {true, false, true};
-  s.clamps = {c};
+  c.axes = axes;
+  s->clamps = {c};
+}
+
+// Unit outward normals of the garment at its initial positions, oriented by the body field.
+Positions OutwardNormals(GarmentSystem& sys, const SceneSpec& s) {
+  Positions out = AreaWeightedVertexNormals(s.initial, s.garment.faces);
+  auto inside = [&](const Positions& p) { return (sys.VertexPhi(p).array() < 0).count(); };
+  if (inside(s.initial + 2e-3 * out) > inside(s.initial - 2e-3 * out)) out = -out;
+  return out;
+}
+
+Fixture MakeSystem(ContactModel contact, Relaxation relax) {
+  SceneSpec s = SmallSleeve(contact);
+  s.effects.relaxation = relax;
+  for (size_t f = 0; f < s.design.size(); f += 3) s.design[f] = kReinforced;
+  PinFirstTwoVertices(&s, {true, false, true});
   auto model = BuildGarmentModel(s);
   EXPECT_TRUE(model.ok()) << model.message();
   Fixture fx;
@@ -112,20 +131,14 @@ TEST(GarmentSystem, SparseAssemblyMatchesDenseAssembly) {
 // Friction in the assembled system: its lagged data come from the contact forces at a state, its
 // gradient matches finite differences, and it adds to the energy only where the garment presses on the body.
 TEST(GarmentSystem, FrictionGradientMatchesFiniteDifferencesAndNeedsContactForce) {
-  SleeveOptions o;
-  o.around = 12;
-  o.sleeve_halflength_m = 0.05;
-  o.contact = ContactModel::kUnilateral;
-  SceneSpec s = SleeveOnLimbScene(o);
+  SceneSpec s = SmallSleeve(ContactModel::kUnilateral);
   s.effects.friction = 0.4;
   auto model = BuildGarmentModel(s);
   ASSERT_TRUE(model.ok()) << model.message();
   GarmentSystem sys(std::move(model).value(), s.initial);
   // Lag at a state pressed into the body, then evaluate at a displaced one.
-  // Outward normals of the garment on the body (oriented by the field).
-  Positions out = AreaWeightedVertexNormals(s.initial, s.garment.faces);
+  const Positions out = OutwardNormals(sys, s);
   auto inside = [&](const Positions& p) { return (sys.VertexPhi(p).array() < 0).count(); };
-  if (inside(s.initial + 2e-3 * out) > inside(s.initial - 2e-3 * out)) out = -out;
   ASSERT_GT(inside(s.initial - 1e-3 * out), s.initial.rows() / 2);
   const Positions pressed = s.initial - 1e-3 * out;
   Positions x = s.initial;
@@ -168,23 +181,12 @@ TEST(GarmentSystem, FrictionGradientMatchesFiniteDifferencesAndNeedsContactForce
 // to just inside the surface; vertices already in contact, clamped vertices, and the other contact models
 // are left alone.
 TEST(GarmentSystem, ProjectCrossingsOntoBodyMovesOnlyTheVerticesThatCrossed) {
-  SleeveOptions o;
-  o.around = 12;
-  o.sleeve_halflength_m = 0.05;
-  o.contact = ContactModel::kUnilateral;
-  SceneSpec s = SleeveOnLimbScene(o);
-  s.effects.clamps = true;
-  Clamp c;
-  c.name = "pin";
-  c.vertices = {0, 1};
-  c.axes = {true, true, true};
-  s.clamps = {c};
+  SceneSpec s = SmallSleeve(ContactModel::kUnilateral);
+  PinFirstTwoVertices(&s, {true, true, true});
   auto model = BuildGarmentModel(s);
   ASSERT_TRUE(model.ok()) << model.message();
   GarmentSystem sys(std::move(model).value(), s.initial);
-  Positions out = AreaWeightedVertexNormals(s.initial, s.garment.faces);
-  auto inside = [&](const Positions& p) { return (sys.VertexPhi(p).array() < 0).count(); };
-  if (inside(s.initial + 2e-3 * out) > inside(s.initial - 2e-3 * out)) out = -out;
+  const Positions out = OutwardNormals(sys, s);
   // This sleeve starts 1-3 mm inside the limb. A step from 4 mm further out (every third vertex from
   // where it is, inside) to there.
   Positions from = s.initial + 4e-3 * out;
