@@ -286,7 +286,7 @@ int RunEvaluate(const std::string& path, int k, bool json) {
                 100 * sd->file.iterations[sd->iteration].area_fraction, a.size(), a.size() == 1 ? "" : "s", "frame", "energy_J",
                 "reinf_J", "density_J/m2", "full_J/m2", "ratio");
   for (size_t f = 0; f < a.size(); ++f) {
-    converged &= a[f].solve.converged() && b[f].solve.converged();
+    converged &= a[f].solve.at_equilibrium() && b[f].solve.at_equilibrium();
     const double ratio = b[f].reinforced_density_J_per_m2 > 0 ? a[f].reinforced_density_J_per_m2 / b[f].reinforced_density_J_per_m2 : 0;
     if (json) {
       j["frames"].push_back({{"frame", f + 1},
@@ -298,7 +298,7 @@ int RunEvaluate(const std::string& path, int k, bool json) {
                              {"density_ratio", ratio}});
     } else {
       std::printf("%6zu %12.6g %12.6g %14.6g %14.6g %7.3f%s\n", f + 1, a[f].solve.energy_J, a[f].reinforced_energy_J,
-                  a[f].reinforced_density_J_per_m2, b[f].reinforced_density_J_per_m2, ratio, a[f].solve.converged() ? "" : "  (not converged)");
+                  a[f].reinforced_density_J_per_m2, b[f].reinforced_density_J_per_m2, ratio, a[f].solve.at_equilibrium() ? "" : "  (not converged)");
     }
   }
   if (json) std::printf("%s\n", j.dump().c_str());
@@ -337,7 +337,7 @@ int RunBaselines(const std::string& path, int k, double angle_deg, bool angle_gi
   const double best = cmp->optimized_result.reinforced_energy_J;
   for (const Row& r : rows) {
     const SimulationResult& s = *r.result;
-    converged &= s.solve.converged();
+    converged &= s.solve.at_equilibrium();
     if (json) {
       j[r.name] = {{"area_fraction", s.reinforced_area_m2 / garment_area},
                    {"status", ToString(s.solve.status)},
@@ -346,7 +346,7 @@ int RunBaselines(const std::string& path, int k, double angle_deg, bool angle_gi
                    {"reinforced_density_J_per_m2", s.reinforced_density_J_per_m2}};
     } else {
       std::printf("%-10s %8.2f %14.6g %14.6g %13.3f%s\n", r.name, 100 * s.reinforced_area_m2 / garment_area, s.reinforced_energy_J,
-                  s.reinforced_density_J_per_m2, best > 0 ? s.reinforced_energy_J / best : 0.0, s.solve.converged() ? "" : "  (not converged)");
+                  s.reinforced_density_J_per_m2, best > 0 ? s.reinforced_energy_J / best : 0.0, s.solve.at_equilibrium() ? "" : "  (not converged)");
     }
     if (!out.empty()) {
       Eigen::VectorXd d(r.design->size());

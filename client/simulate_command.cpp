@@ -111,7 +111,7 @@ int RunFrames(const SimulateOptions& o, const SceneSpec& scene) {
     std::printf("%-6s %-14s %-16s %-14s %-10s %-9s %-10s %s\n", "frame", "status", "energy_J", "reinforced_J", "min_phi_mm",
                 "inverted", "seconds", "iterations");
   Result<std::vector<SimulationResult>> r = SimulateFrames(scene, [&](int k, const SimulationResult& fr) {
-    all_converged &= fr.solve.converged();
+    all_converged &= fr.solve.at_equilibrium();
     if (o.json) {
       nlohmann::json j = ResultJson(scene, fr);
       j["frame"] = k + 1;
@@ -168,7 +168,7 @@ int RunSimulate(const SimulateOptions& o) {
     }
     if (!o.json) std::printf("wrote                 %s\n", o.out.c_str());
   }
-  return r->solve.converged() ? 0 : 3;
+  return r->solve.at_equilibrium() ? 0 : 3;
 }
 
 }  // namespace

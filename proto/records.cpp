@@ -20,7 +20,7 @@ void Append(const double* data, Eigen::Index n, Field* out) {
 
 Result<SolveStatus> StatusFromName(const std::string& name) {
   for (SolveStatus s : {SolveStatus::kConverged, SolveStatus::kLineSearchFailed, SolveStatus::kNotPositiveDefinite,
-                        SolveStatus::kIterationLimit, SolveStatus::kInvalidState})
+                        SolveStatus::kIterationLimit, SolveStatus::kInvalidState, SolveStatus::kStalled})
     if (name == ToString(s)) return s;
   return Status::Error("metrics.solve_status: unknown status '" + name + "'");
 }

@@ -12,7 +12,9 @@
 //   /garment/initial_positions   (V,3) float64, m: the garment on the body in the deformed pose
 //   /garment/attachment_faces    (A)   int32
 //   /iterations/<metric>         (N)   one dataset per metric (DesignFileMetricNames): float64, or
-//                                int32 for iteration, status, solver_iterations, cold_restart
+//                                int32 for iteration, status, solver_iterations, cold_restart;
+//                                status: 0 converged, 1 line_search_failed, 2 not_positive_definite,
+//                                3 iteration_limit, 4 invalid_state, 5 stalled (SolveStatus)
 //   /iterations/design           (N,F)   uint8, 1 = reinforced
 //   /iterations/positions        (N,V,3) float64, m
 //   /iterations/energy_density_Pa (N,F) float64, strain energy density W

@@ -192,6 +192,31 @@ TEST(DesignFile, RefusesFilesThatAreNotDesignFiles) {
   std::filesystem::remove(text);
 }
 
+// Every solver status survives the file; a number that is none (a damaged or foreign file) is refused
+// with the row named instead of becoming an enum value nobody handles.
+TEST(DesignFile, StatusesRoundTripAndUnknownOnesAreRefused) {
+  const Fixture f = MakeRun(1);
+  const std::string path = TempPath("status.h5");
+  auto write = [&](SolveStatus second) {
+    auto w = DesignFileWriter::Create(path, f.header);
+    ASSERT_TRUE(w.ok()) << w.message();
+    ASSERT_TRUE((*w)->Append(f.run[0]).ok());
+    BesoIteration it = f.run[1];
+    it.status = second;
+    ASSERT_TRUE((*w)->Append(it).ok());
+  };
+  write(SolveStatus::kStalled);
+  Result<DesignFile> d = ReadDesignFile(path, {.arrays = false});
+  ASSERT_TRUE(d.ok()) << d.message();
+  EXPECT_EQ(d->iterations[1].status, SolveStatus::kStalled);
+  write(static_cast<SolveStatus>(42));
+  d = ReadDesignFile(path, {.arrays = false});
+  ASSERT_FALSE(d.ok());
+  EXPECT_NE(d.message().find("/iterations/status row 1 holds 42"), std::string::npos) << d.message();
+  EXPECT_NE(d.message().find(path), std::string::npos) << d.message();
+  std::filesystem::remove(path);
+}
+
 TEST(DesignFile, SettingsJsonRoundTripsAndRejectsBadValues) {
   BesoSettings s;
   s.budget = 0.2;

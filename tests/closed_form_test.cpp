@@ -73,7 +73,8 @@ TEST_P(ClosedFormTest, UniaxialForceAndLateralStretchMatch) {
   // The authors' rule has a gradient jump on which uniaxial tension sits; Newton may stall there with
   // the energy and forces converged (reference-code notes, section 0.3): a typed stall is acceptable.
   if (relaxation == Relaxation::kAuthors && !r->solve.converged()) {
-    EXPECT_EQ(r->solve.status, SolveStatus::kLineSearchFailed) << r->solve.message;
+    EXPECT_TRUE(r->solve.status == SolveStatus::kStalled || r->solve.status == SolveStatus::kLineSearchFailed)
+        << ToString(r->solve.status) << ": " << r->solve.message;
   } else {
     EXPECT_TRUE(r->solve.converged()) << ToString(r->solve.status) << ": " << r->solve.message;
   }

@@ -109,7 +109,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
     sim.ResetFactorization();
     const auto t0 = Clock::now();
     SolveReport report = SolveLagged(sim, sys, &x, scene.solver);
-    if (!report.converged() && it > 0) {
+    if (!report.at_equilibrium() && it > 0) {
       // From the last equilibrium the solver can wander into a path it cannot finish (a pleat pressed
       // against the fold barrier); the garment on the body is the start the scene was made for.
       x = scene.initial;
@@ -134,7 +134,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
     b.energy_density_Pa = r.face_density_Pa;
     density = r.face_density_Pa;
     b.total_s = Since(t_iteration);
-    if (!report.converged())
+    if (!report.at_equilibrium())
       return Status::Error("BESO iteration " + std::to_string(it) + ": the simulation did not converge (" + ToString(report.status) +
                            (report.message.empty() ? "" : ": " + report.message) + ")");
     past.push_back(b);

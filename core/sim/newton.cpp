@@ -5,6 +5,7 @@
 #include <Eigen/CholmodSupport>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <mutex>
 
@@ -73,6 +74,7 @@ const char* ToString(SolveStatus s) {
     case SolveStatus::kNotPositiveDefinite: return "not_positive_definite";
     case SolveStatus::kIterationLimit: return "iteration_limit";
     case SolveStatus::kInvalidState: return "invalid_state";
+    case SolveStatus::kStalled: return "stalled";
   }
   return "unknown";
 }
@@ -119,6 +121,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   const int n = sys.num_free_dofs();
   const int max_it = settings.max_iterations > 0 ? settings.max_iterations : 200;
   SolveReport rep;
+  rep.energy_c0 = sys.model().effects.relaxation == Relaxation::kAuthors;
   rep.tolerance_N = settings.grad_tol * sys.force_scale_N() * std::sqrt(std::max(1.0, n / 3.0));
 
   sys.ApplyClampsSmoothly(x);
@@ -159,6 +162,11 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   Eigen::VectorXd phi_from;  // Phi at *x, taken at the first line search from it
   Positions trial;
   Eigen::VectorXd g_trial_full;
+  // Cut steps that no longer lower the energy beyond round-off, in a row. On a C0 energy (the authors'
+  // relaxation) Newton ends up straddling the gradient jump: the residual cannot fall, the energy has
+  // converged, and without this count the solve would spend its whole iteration budget there.
+  int stalled_steps = 0;
+  const int kStallSteps = 8;
 
   for (int it = 0;; ++it) {
     rep.iterations = it;
@@ -299,12 +307,28 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
     }
     x->swap(trial);
     phi_from.resize(0);
+    const double E_before = E;
     t = Clock::now();
     E = sys.Evaluate(*x, &g_full, &nt.H, &rep.energies);
     rep.assembly_s += Seconds(t, Clock::now());
     ++rep.energy_evaluations;
     g = GatherFree(g_full, free_index, n);
     if (settings.on_iteration) settings.on_iteration({it + 1, E, g.norm(), alpha, delta, used_pcg});
+    stalled_steps = (alpha < 1.0 && E_before - E <= 1e-12 * std::abs(E_before)) ? stalled_steps + 1 : 0;
+    if (stalled_steps >= kStallSteps && g.norm() > rep.tolerance_N) {
+      rep.iterations = it + 1;
+      rep.energy_J = E;
+      rep.grad_norm_N = g.norm();
+      rep.status = SolveStatus::kStalled;
+      char buf[320];
+      std::snprintf(buf, sizeof buf,
+                    "stalled: %d cut steps in a row lowered the energy (%.12g J) by less than round-off, residual %.3g N "
+                    "above the tolerance %.3g N; a minimum on a gradient jump (relaxation \"authors\") or a tolerance "
+                    "below what double precision resolves",
+                    kStallSteps, E, rep.grad_norm_N, rep.tolerance_N);
+      rep.message = buf;
+      return rep;
+    }
   }
 }
 
@@ -330,7 +354,7 @@ SolveReport SolveLagged(Simulator& sim, GarmentSystem& system, Positions* x, con
   for (int pass = 0; pass < 2; ++pass) {
     system.LagFriction(*x);
     AccumulateSolve(&total, sim.Solve(x, settings));
-    if (!total.converged()) break;
+    if (!total.at_equilibrium()) break;
   }
   return total;
 }

@@ -123,6 +123,27 @@ TEST(Simulator, ReportsAnInvalidInitialState) {
   EXPECT_NE(model.message().find("zero area"), std::string::npos) << model.message();
 }
 
+// The pull-test Line sits in uniaxial tension, on the gradient jump of the authors' relaxation: the
+// residual cannot fall below tolerance there. The solve ends early with a typed stall, at the same
+// equilibrium as the smooth (exact) relaxation, instead of running to its iteration limit.
+TEST(Simulator, AStallOnTheAuthorsGradientJumpEndsTheSolveEarly) {
+  auto exact = PullTestScene("line");
+  ASSERT_TRUE(exact.ok());
+  exact->solver.grad_tol = 1e-7;  // as the example scene: far below the size of the jump
+  SceneSpec authors = *exact;
+  authors.effects.relaxation = Relaxation::kAuthors;
+  auto re = SimulateScene(*exact);
+  auto ra = SimulateScene(authors);
+  ASSERT_TRUE(re.ok() && ra.ok());
+  EXPECT_TRUE(re->solve.converged()) << re->solve.message;
+  EXPECT_EQ(ra->solve.status, SolveStatus::kStalled) << ToString(ra->solve.status) << ": " << ra->solve.message;
+  EXPECT_LT(ra->solve.iterations, 150);  // the default limit is 200
+  EXPECT_GT(ra->solve.grad_norm_N, ra->solve.tolerance_N);
+  EXPECT_NE(ra->solve.message.find("gradient jump"), std::string::npos) << ra->solve.message;
+  const double fe = re->clamp_forces[1].force_N.norm(), fa = ra->clamp_forces[1].force_N.norm();
+  EXPECT_NEAR(fa / fe, 1.0, 1e-3) << "authors " << fa << " N, exact " << fe << " N";
+}
+
 TEST(Simulator, IterationLimitIsReportedWithTheResidual) {
   auto pull = PullTestScene("x");
   ASSERT_TRUE(pull.ok());
