@@ -322,7 +322,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       rep.status = SolveStatus::kStalled;
       char buf[320];
       std::snprintf(buf, sizeof buf,
-                    "stalled: %d cut steps in a row lowered the energy (%.12g J) by less than round-off, residual %.3g N "
+                    "%d cut steps in a row lowered the energy (%.12g J) by less than round-off, residual %.3g N "
                     "above the tolerance %.3g N; a minimum on a gradient jump (relaxation \"authors\") or a tolerance "
                     "below what double precision resolves",
                     kStallSteps, E, rep.grad_norm_N, rep.tolerance_N);
