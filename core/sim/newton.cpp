@@ -176,6 +176,17 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       rep.status = SolveStatus::kConverged;
       return rep;
     }
+    if (stalled_steps >= kStallSteps) {
+      rep.status = SolveStatus::kStalled;
+      char buf[320];
+      std::snprintf(buf, sizeof buf,
+                    "%d cut steps in a row lowered the energy (%.12g J) by less than round-off, residual %.3g N "
+                    "above the tolerance %.3g N; a minimum on a gradient jump (relaxation \"authors\") or a tolerance "
+                    "below what double precision resolves",
+                    kStallSteps, E, rep.grad_norm_N, rep.tolerance_N);
+      rep.message = buf;
+      return rep;
+    }
     if (it >= max_it) {
       rep.status = SolveStatus::kIterationLimit;
       rep.message = "no convergence in " + std::to_string(max_it) + " Newton iterations";
@@ -315,20 +326,6 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
     g = GatherFree(g_full, free_index, n);
     if (settings.on_iteration) settings.on_iteration({it + 1, E, g.norm(), alpha, delta, used_pcg});
     stalled_steps = (alpha < 1.0 && E_before - E <= 1e-12 * std::abs(E_before)) ? stalled_steps + 1 : 0;
-    if (stalled_steps >= kStallSteps && g.norm() > rep.tolerance_N) {
-      rep.iterations = it + 1;
-      rep.energy_J = E;
-      rep.grad_norm_N = g.norm();
-      rep.status = SolveStatus::kStalled;
-      char buf[320];
-      std::snprintf(buf, sizeof buf,
-                    "%d cut steps in a row lowered the energy (%.12g J) by less than round-off, residual %.3g N "
-                    "above the tolerance %.3g N; a minimum on a gradient jump (relaxation \"authors\") or a tolerance "
-                    "below what double precision resolves",
-                    kStallSteps, E, rep.grad_norm_N, rep.tolerance_N);
-      rep.message = buf;
-      return rep;
-    }
   }
 }
 
