@@ -87,6 +87,9 @@ struct SolveReport {
   // Newton breakdown (seconds) and counters.
   double assembly_s = 0, factorization_s = 0, solve_s = 0, line_search_s = 0;
   int factorizations = 0, pcg_solves = 0, pcg_iterations = 0, energy_evaluations = 0;
+  // Entries of the Cholesky factor (Newton; 0 before the first factorization): the analysis tries AMD
+  // and METIS orderings once per mesh and keeps the sparser.
+  double factor_nonzeros = 0;
   // The energy is only C0 (the authors' relaxation): a stall there is the expected end on a gradient jump.
   bool energy_c0 = false;
   bool converged() const { return status == SolveStatus::kConverged; }
