@@ -61,7 +61,8 @@ class BodyField {
 
   Positions vertices_;
   Positions normals_;
-  Eigen::VectorXd h2_;  // squared support radius per body vertex
+  Eigen::VectorXd h2_;      // squared support radius per body vertex
+  Eigen::VectorXd inv_h2_;  // its inverse (0 for an isolated vertex, which is never a candidate)
   double max_h_ = 0, mean_h_ = 0, margin_ = 0;
   struct Index;
   std::unique_ptr<Index> index_;
