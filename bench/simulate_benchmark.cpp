@@ -34,6 +34,7 @@ void Report(benchmark::State& state, const SolveReport& r) {
   state.counters["solve_ms"] = 1e3 * r.solve_s;
   state.counters["linesearch_ms"] = 1e3 * r.line_search_s;
   state.counters["converged"] = r.converged();
+  state.counters["factor_nnz"] = r.factor_nonzeros;
 }
 
 // Cold: a fresh simulator (symbolic analysis included) from the body-surface initial state.
@@ -105,6 +106,7 @@ void BM_WarmResolve(benchmark::State& state) {
   state.counters["linesearch_ms"] = 1e3 * total.line_search_s / steps;
   state.counters["failures"] = failures;
   state.counters["last_energy_J"] = energy;
+  state.counters["factor_nnz"] = total.factor_nonzeros;
 }
 // method: 0 Newton reusing factorizations, 1 Newton factorizing every step (the default), 2 L-BFGS,
 // 3 as 1 without the line search's contact projection (SolverSettings::project_contact_crossings).
