@@ -98,10 +98,10 @@ Simulator::Simulator(GarmentSystem* system) : system_(system), newton_(std::make
   c.print = 0;  // failures are reported through SolveReport, not stderr
   // The analysis runs once per mesh and the factorization hundreds of times, so both fill-reducing
   // orderings are tried and the sparser factor kept. CHOLMOD's default tries METIS only when AMD's
-  // fill looks bad (>= 500 flops per factor entry); our garments stay below that, yet METIS's nested
-  // dissection cuts the factorization's flops by 38 % on the built-in arm flexion sleeve (7k vertices)
-  // and by 46 % on the slouch's shirt (17k), while AMD stays better on the flat pull-test sample
-  // (docs/PERFORMANCE.md).
+  // factor looks dense (>= 500 flops per factor entry and >= 5 times the matrix's entries); our
+  // garments stay far below the first, yet METIS's nested dissection cuts the factorization's flops by
+  // 38 % on the built-in arm flexion sleeve (7k vertices) and by 46 % on the slouch's shirt (17k),
+  // while AMD stays better on the flat pull-test sample (docs/PERFORMANCE.md).
   // The entries are copied from CHOLMOD's default suite (1: AMD, 2: METIS) to keep their parameters.
   c.method[0] = c.method[1];
   c.method[1] = c.method[2];
