@@ -19,9 +19,8 @@ void Append(const double* data, Eigen::Index n, Field* out) {
 }
 
 Result<SolveStatus> StatusFromName(const std::string& name) {
-  for (SolveStatus s : {SolveStatus::kConverged, SolveStatus::kLineSearchFailed, SolveStatus::kNotPositiveDefinite,
-                        SolveStatus::kIterationLimit, SolveStatus::kInvalidState, SolveStatus::kStalled})
-    if (name == ToString(s)) return s;
+  for (int k = 0; k <= static_cast<int>(kLastSolveStatus); ++k)
+    if (name == ToString(static_cast<SolveStatus>(k))) return static_cast<SolveStatus>(k);
   return Status::Error("metrics.solve_status: unknown status '" + name + "'");
 }
 

@@ -509,9 +509,10 @@ Result<DesignFile> ReadDesignFile(const std::string& path, const DesignFileReadO
     bool ok = ReadRow(its, "iteration", H5T_NATIVE_INT, i, &it.iteration);
     int status = 0;
     ok = ok && ReadRow(its, "status", H5T_NATIVE_INT, i, &status);
-    if (ok && (status < 0 || status > static_cast<int>(SolveStatus::kStalled)))
+    const int last = static_cast<int>(kLastSolveStatus);
+    if (ok && (status < 0 || status > last))
       return Fail(path, "/iterations/status row " + std::to_string(i) + " holds " + std::to_string(status) +
-                            ", not a solver status (0-" + std::to_string(static_cast<int>(SolveStatus::kStalled)) + ")");
+                            ", not a solver status (0-" + std::to_string(last) + ")");
     it.status = static_cast<SolveStatus>(status);
     for (const MetricSpec& s : Metrics())
       ok = ok && (s.integer ? ReadRow(its, s.name, H5T_NATIVE_INT, i, &(it.*(s.whole)))

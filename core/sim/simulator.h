@@ -41,6 +41,9 @@ enum class SolveStatus {
                             // residual above tolerance: a minimum on a gradient jump (the authors'
                             // relaxation) or a tolerance below what double precision resolves
 };
+// The last value: code that walks or range-checks every status (design files, the protocol's names)
+// follows it. Move it when appending.
+inline constexpr SolveStatus kLastSolveStatus = SolveStatus::kStalled;
 const char* ToString(SolveStatus status);
 
 // Progress of one iteration, for logging (`kgd simulate --verbose`).
