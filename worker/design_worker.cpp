@@ -3,6 +3,7 @@
 #include <grpcpp/grpcpp.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -80,6 +81,7 @@ struct DesignWorker::Impl {
     // The stream, its reader and the heartbeats run from the start: building a large scene may take
     // longer than the lease.
     std::atomic<bool> cancel{false}, drain{false}, lost{false}, done{false};
+    std::atomic<int> acknowledged{0};  // iterations the server has stored, from its latest reply
     std::string server_error;
     {
       v1::WorkerMessage hello;
@@ -95,6 +97,7 @@ struct DesignWorker::Impl {
         }
         if (reply.cancel()) cancel = true;
         if (reply.drain()) drain = true;
+        acknowledged = std::max(acknowledged.load(), reply.acknowledged_iterations());
       }
       lost = true;
     });
@@ -152,6 +155,10 @@ struct DesignWorker::Impl {
         m.mutable_iteration()->mutable_metrics()->set_report_time_s(
             std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count());
         if (!send(m)) lost = true;
+        // At most one report ahead of the server's replies: cancel and drain arrive on them, and a worker
+        // whose iterations outrun the server's commits would otherwise run on for several iterations
+        // after a cancel. Normally the reply to the previous report is long in.
+        while (acknowledged < it.iteration && keep_going()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
         return keep_going();
       };
       if (keep_going()) {
