@@ -81,8 +81,9 @@ const char* ToString(SolveStatus s) {
 
 struct Simulator::Newton {
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Upper> llt;
-  bool analyzed = false;
-  double factor_nonzeros = 0;  // of the ordering the analysis chose
+  // Entries of the factor under the ordering the symbolic analysis chose; 0 until that analysis, which
+  // runs once per Simulator (a factor of n > 0 unknowns has at least n entries).
+  double factor_nonzeros = 0;
   bool have_factor = false;
   double mu = 0;  // largest damping with which the last solve took a full step: a warm re-solve starts there
   // PCG on an old factorization pays only while the Hessian changes little between steps; on scenes
@@ -251,9 +252,8 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       // 2) Fresh factorization of H + delta I (raising delta until CHOLMOD succeeds).
       if (!have_step) {
         t = Clock::now();
-        if (!nt.analyzed) {
+        if (nt.factor_nonzeros == 0) {
           nt.llt.analyzePattern(nt.H);
-          nt.analyzed = true;
           nt.factor_nonzeros = rep.factor_nonzeros = nt.llt.cholmod().lnz;
         }
         bool ok = false;
