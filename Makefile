@@ -18,8 +18,10 @@ build: setup
 demo: build
 	bash scripts/demo.sh $(BUILD)
 
+# --timeout: a test that hangs fails with its name after 20 minutes (the longest takes about one)
+# instead of holding the whole run.
 test: build
-	cd $(BUILD) && ctest --output-on-failure -j$(JOBS) -LE acceptance
+	cd $(BUILD) && ctest --output-on-failure -j$(JOBS) -LE acceptance --timeout 1200
 
 # Whole design runs to the budget (issue: the design engine, acceptance 2); about half an hour.
 acceptance: build

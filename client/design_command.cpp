@@ -92,9 +92,12 @@ int RunDesign(const DesignOptions& o) {
   std::string path;
   if (resume) {
     path = o.resume;
-    Result<DesignFile> metrics = ReadDesignFile(path, {.arrays = false});
-    if (!metrics.ok()) return Fail("design", metrics.message());
-    const int n = static_cast<int>(metrics->iterations.size());
+    // Reopened first: a file left by a killed run is rebuilt from its intact iterations before any is read.
+    Result<std::unique_ptr<DesignFileWriter>> w = DesignFileWriter::Reopen(path);
+    if (!w.ok()) return Fail("design", w.message());
+    writer = std::move(w).value();
+    if (!writer->repair_note().empty()) std::fprintf(stderr, "kgd design: %s: %s\n", path.c_str(), writer->repair_note().c_str());
+    const int n = writer->num_iterations();
     Result<DesignFile> file = ReadDesignFile(path, {.arrays = true, .only_iteration = n - 1});
     if (!file.ok()) return Fail("design", file.message());
     header = file->header;
@@ -104,9 +107,6 @@ int RunDesign(const DesignOptions& o) {
     Result<SceneSpec> s = SceneOfDesignFile(path, header);
     if (!s.ok()) return Fail("design", s.message());
     scene = std::move(s).value();
-    Result<std::unique_ptr<DesignFileWriter>> w = DesignFileWriter::Reopen(path, n);
-    if (!w.ok()) return Fail("design", w.message());
-    writer = std::move(w).value();
   } else {
     Result<SceneSpec> s = ResolveScene(o.scene, o.body);
     if (!s.ok()) return Fail("design", s.message());

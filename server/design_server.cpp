@@ -109,18 +109,23 @@ struct DesignServer::Impl : v1::DesignService::Service, v1::WorkerService::Servi
         if (job.iterations() > 0) Log(path + ": missing; job " + std::to_string(job.id()) + " lost its arrays");
         continue;
       }
-      Result<DesignFile> f = ReadDesignFile(path, {.arrays = false});
-      if (!f.ok()) {
-        Log(f.message());
+      // All intact iterations first (a file left by a killed server is rebuilt from them), then
+      // trimmed to what the job store acknowledged.
+      Result<std::unique_ptr<DesignFileWriter>> w = DesignFileWriter::Reopen(path);
+      if (!w.ok()) {
+        Log(w.message());
         continue;
       }
-      const int on_disk = static_cast<int>(f->iterations.size());
+      if (!(*w)->repair_note().empty()) Log(path + ": " + (*w)->repair_note());
+      const int on_disk = (*w)->num_iterations();
       if (on_disk < job.iterations()) {
         Log(path + ": holds fewer iterations than acknowledged; trimming job " + std::to_string(job.id()));
         KGD_RETURN_IF_ERROR(store->TruncateIterations(job.id(), on_disk));
+      } else if (on_disk > job.iterations()) {
+        w->reset();
+        w = DesignFileWriter::Reopen(path, job.iterations());
+        if (!w.ok()) Log(w.message());
       }
-      Result<std::unique_ptr<DesignFileWriter>> w = DesignFileWriter::Reopen(path, std::min(on_disk, job.iterations()));
-      if (!w.ok()) Log(w.message());
     }
     return Status::Ok();
   }
@@ -360,6 +365,10 @@ struct DesignServer::Impl : v1::DesignService::Service, v1::WorkerService::Servi
       store->SetGarmentFaces(job_id, static_cast<int>(header.garment.faces.rows()));
     } else {
       w = DesignFileWriter::Reopen(path, (*job)->iterations());
+      // Repair() rebuilt every file a killed server left; one found here would have lost iterations
+      // the worker was told are stored.
+      if (w.ok() && (*w)->num_iterations() < (*job)->iterations())
+        return Status::Error(path + ": " + (*w)->repair_note() + "; the job needs a server restart to be trimmed");
     }
     if (!w.ok()) return w.status();
     files[job_id] = OpenFile{lease_id, std::move(w).value()};

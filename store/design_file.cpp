@@ -293,21 +293,168 @@ DesignFileWriter::~DesignFileWriter() = default;
 int DesignFileWriter::faces() const { return impl_->faces; }
 int DesignFileWriter::vertices() const { return impl_->vertices; }
 
-// File access for writers: the newest format (SWMR needs it). `clear_flags`: a writer killed in SWMR mode
-// leaves the superblock marked "open for write", which a plain open refuses; reopening clears the
-// mark the way the h5clear tool does (its property, "clear_status_flags", is not in the public API).
-Id WriterAccess(bool clear_flags) {
+// File access for writers: the newest format (SWMR needs it).
+Id WriterAccess() {
   Id fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   H5Pset_libver_bounds(fapl, H5F_LIBVER_LATEST, H5F_LIBVER_LATEST);
   // Locking off as for readers: HDF5 refuses a second open in one process (the server reading a job it
   // writes) when the flags differ. One writer per file is the caller's guarantee (the server's leases).
   H5Pset_file_locking(fapl, false, true);
-  if (clear_flags) {
-    hbool_t clear = true;
-    H5Pset(fapl, "clear_status_flags", &clear);
-  }
   return fapl;
 }
+
+// A design file open for reading: the header read and checked, iterations read one at a time.
+struct DesignFileReader {
+  std::string path;
+  Id file, its;
+  DesignFileHeader header;
+  hsize_t marker_rows = 0;  // length of the commit marker /iterations/iteration
+  hsize_t rows = 0;         // iterations to read: marker_rows, or fewer where a dataset is shorter (salvage)
+};
+
+namespace {
+
+// Opens `path` and reads its header. Strict (salvage false): every dataset must hold the marker's
+// rows. Salvage: a killed writer may leave datasets shorter than the marker; rows counts what all
+// datasets hold.
+Result<std::unique_ptr<DesignFileReader>> OpenDesignFileReader(const std::string& path, bool salvage) {
+  auto reader = std::make_unique<DesignFileReader>();
+  DesignFileReader& r = *reader;
+  r.path = path;
+  SilenceHdf5();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return Fail(path, "no such file");
+  {
+    char signature[8] = {};
+    std::ifstream(path, std::ios::binary).read(signature, 8);
+    if (std::memcmp(signature, "\x89HDF\r\n\x1a\n", 8) != 0) return Fail(path, "not an HDF5 file");
+  }
+  // Without HDF5's file lock, so that a design file can be read while its job is still writing it
+  // (the writer flushes whole iterations; rows beyond /iterations/iteration are ignored).
+  Id fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  H5Pset_file_locking(fapl, false, true);
+  // A SWMR reader retries a metadata block whose checksum fails (it may be half written by the live
+  // writer) with doubling sleeps from 1 ns: HDF5's default of 100 attempts is hours on a block a
+  // killed writer left torn. 28 attempts wait ~0.3 s in all, far longer than any write of one block.
+  H5Pset_metadata_read_attempts(fapl, 28);
+  // SWMR read sees the last flushed iteration of a file being written, or of one whose writer was
+  // killed (a plain open refuses such a file); files written before SWMR open plainly.
+  r.file = Id(H5Fopen(path.c_str(), H5F_ACC_RDONLY | H5F_ACC_SWMR_READ, fapl), H5Fclose);
+  if (!r.file.ok()) r.file = Id(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl), H5Fclose);
+  if (!r.file.ok()) return Fail(path, "cannot open the HDF5 file (damaged?)");
+  std::string format;
+  int version = 0;
+  if (!ReadStringAttribute(r.file, "format", &format) || format != kFormat)
+    return Fail(path, "not a kgd design file (attribute format is not \"" + std::string(kFormat) + "\")");
+  if (!ReadIntAttribute(r.file, "format_version", &version) || version != kFormatVersion)
+    return Fail(path, "design file format_version " + std::to_string(version) + " is not supported (this kgd reads " +
+                          std::to_string(kFormatVersion) + ")");
+  DesignFileHeader& h = r.header;
+  {
+    Id job(H5Gopen2(r.file, "job", H5P_DEFAULT), H5Gclose);
+    std::string settings;
+    if (!job.ok() || !ReadStringAttribute(job, "scene", &h.scene) || !ReadStringAttribute(job, "body", &h.body) ||
+        !ReadStringAttribute(job, "settings", &settings))
+      return Fail(path, "/job is missing or incomplete");
+    Result<BesoSettings> s = BesoSettingsFromJson(settings);
+    if (!s.ok()) return Fail(path, "/job settings: " + s.message());
+    h.settings = *s;
+  }
+  {
+    Id g(H5Gopen2(r.file, "garment", H5P_DEFAULT), H5Gclose);
+    if (!g.ok()) return Fail(path, "/garment is missing");
+    const std::vector<hsize_t> vs = Shape(g, "rest_vertices"), fs = Shape(g, "faces"), as = Shape(g, "rest_area"),
+                               is = Shape(g, "initial_positions"), ts = Shape(g, "attachment_faces");
+    if (vs.size() != 2 || vs[1] != 3 || fs.size() != 2 || fs[1] != 3 || as != std::vector<hsize_t>{fs[0]} || is != vs ||
+        ts.size() != 1)
+      return Fail(path, "/garment datasets are missing or have inconsistent shapes");
+    std::vector<double> rest(vs[0] * 3), initial(vs[0] * 3);
+    std::vector<int> faces(fs[0] * 3);
+    h.rest_area_m2.resize(fs[0]);
+    h.attachment_faces.resize(ts[0]);
+    if (!ReadAll(g, "rest_vertices", H5T_NATIVE_DOUBLE, rest.data()) || !ReadAll(g, "faces", H5T_NATIVE_INT, faces.data()) ||
+        !ReadAll(g, "rest_area", H5T_NATIVE_DOUBLE, h.rest_area_m2.data()) ||
+        !ReadAll(g, "initial_positions", H5T_NATIVE_DOUBLE, initial.data()) ||
+        (ts[0] > 0 && !ReadAll(g, "attachment_faces", H5T_NATIVE_INT, h.attachment_faces.data())))
+      return Fail(path, "cannot read /garment");
+    h.garment.vertices = FromRowMajor(rest);
+    h.initial = FromRowMajor(initial);
+    h.garment.faces.resize(fs[0], 3);
+    for (hsize_t f = 0; f < fs[0]; ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int v = faces[3 * f + k];
+        if (v < 0 || v >= static_cast<int>(vs[0]))
+          return Fail(path, "/garment/faces row " + std::to_string(f) + " has vertex index " + std::to_string(v) + " out of range");
+        h.garment.faces(f, k) = v;
+      }
+  }
+  r.its = Id(H5Gopen2(r.file, "iterations", H5P_DEFAULT), H5Gclose);
+  if (!r.its.ok()) return Fail(path, "/iterations is missing");
+  const char* kKilled = " (a writer killed mid-write? `kgd design --resume FILE` repairs the file, keeping its intact iterations)";
+  const std::vector<hsize_t> ns = Shape(r.its, "iteration");
+  if (ns.size() != 1 && !salvage) return Fail(path, std::string("/iterations/iteration is missing") + kKilled);
+  const hsize_t nf = h.garment.faces.rows(), nv = h.garment.vertices.rows();
+  r.marker_rows = r.rows = ns.size() == 1 ? ns[0] : 0;
+  for (const std::string& name : DesignFileMetricNames()) {
+    const std::vector<hsize_t> s = Shape(r.its, name.c_str());
+    if (s.size() != 1 && salvage) {  // unreadable (a torn object header): no iteration is whole
+      r.rows = 0;
+      continue;
+    }
+    if (s.size() != 1) return Fail(path, "/iterations/" + name + " is missing" + kKilled);
+    if (s[0] < r.rows && !salvage) return Fail(path, "/iterations/" + name + " is shorter than /iterations/iteration" + kKilled);
+    r.rows = std::min(r.rows, s[0]);
+  }
+  const std::vector<std::vector<hsize_t>> array_shapes = {{nf}, {nv, 3}, {nf}, {nf}};
+  for (int a = 0; a < 4; ++a) {
+    std::vector<hsize_t> s = Shape(r.its, kArrayNames[a]);
+    if (s.empty() && salvage) {
+      r.rows = 0;
+      continue;
+    }
+    if (s.size() < 1 || std::vector<hsize_t>(s.begin() + 1, s.end()) != array_shapes[a])
+      return Fail(path, std::string("/iterations/") + kArrayNames[a] + " is missing or does not match the garment");
+    if (s[0] < r.rows && !salvage)
+      return Fail(path, std::string("/iterations/") + kArrayNames[a] + " is shorter than /iterations/iteration" + kKilled);
+    r.rows = std::min(r.rows, s[0]);
+  }
+  return reader;
+}
+
+// Reads iteration row i: its metrics, and its arrays when `arrays`. Errors name the row.
+Status ReadIteration(const DesignFileReader& r, hsize_t i, bool arrays, BesoIteration* it) {
+  const hid_t its = r.its;
+  const std::string& path = r.path;
+  bool ok = ReadRow(its, "iteration", H5T_NATIVE_INT, i, &it->iteration);
+  int status = 0;
+  ok = ok && ReadRow(its, "status", H5T_NATIVE_INT, i, &status);
+  const int last = static_cast<int>(kLastSolveStatus);
+  if (ok && (status < 0 || status > last))
+    return Fail(path, "/iterations/status row " + std::to_string(i) + " holds " + std::to_string(status) +
+                          ", not a solver status (0-" + std::to_string(last) + ")");
+  it->status = static_cast<SolveStatus>(status);
+  for (const MetricSpec& s : Metrics())
+    ok = ok && (s.integer ? ReadRow(its, s.name, H5T_NATIVE_INT, i, &(it->*(s.whole)))
+                          : ReadRow(its, s.name, H5T_NATIVE_DOUBLE, i, &(it->*(s.real))));
+  if (!ok) return Fail(path, "cannot read the metrics of iteration row " + std::to_string(i));
+  if (it->iteration != static_cast<int>(i))
+    return Fail(path, "/iterations/iteration row " + std::to_string(i) + " holds " + std::to_string(it->iteration));
+  if (!arrays) return Status::Ok();
+  const int nf = static_cast<int>(r.header.garment.faces.rows()), nv = static_cast<int>(r.header.garment.vertices.rows());
+  it->design.resize(nf);
+  std::vector<double> x(static_cast<size_t>(nv) * 3);
+  it->energy_density_Pa.resize(nf);
+  it->sensitivity.resize(nf);
+  ok = ReadRow(its, "design", H5T_NATIVE_UINT8, i, it->design.data()) && ReadRow(its, "positions", H5T_NATIVE_DOUBLE, i, x.data()) &&
+       ReadRow(its, "energy_density_Pa", H5T_NATIVE_DOUBLE, i, it->energy_density_Pa.data()) &&
+       ReadRow(its, "sensitivity", H5T_NATIVE_DOUBLE, i, it->sensitivity.data());
+  if (!ok) return Fail(path, "cannot read the arrays of iteration " + std::to_string(i));
+  it->positions = FromRowMajor(x);
+  if (i == 0) it->sensitivity.resize(0);
+  return Status::Ok();
+}
+
+}  // namespace
 
 Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::string& path, const DesignFileHeader& h) {
   SilenceHdf5();
@@ -320,7 +467,7 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
   m.path = path;
   m.faces = static_cast<int>(nf);
   m.vertices = static_cast<int>(nv);
-  Id fapl = WriterAccess(false);
+  Id fapl = WriterAccess();
   m.file = Id(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl), H5Fclose);
   if (!m.file.ok()) return Fail(path, "cannot create the HDF5 file (does the folder exist, is it writable?)");
   bool ok = WriteStringAttribute(m.file, "format", kFormat) && WriteIntAttribute(m.file, "format_version", kFormatVersion);
@@ -359,10 +506,24 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
 
 Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::string& path, int keep) {
   SilenceHdf5();
+  {
+    // A writer killed in SWMR mode leaves the superblock marked "open for write", which a plain open
+    // refuses. Such a file is rebuilt (Salvage) rather than appended to in place.
+    Id probe(H5Fopen(path.c_str(), H5F_ACC_RDWR, WriterAccess()), H5Fclose);
+    if (!probe.ok() && std::filesystem::is_regular_file(path)) {
+      Result<std::unique_ptr<DesignFileReader>> r = OpenDesignFileReader(path, /*salvage=*/true);
+      if (r.ok()) {
+        if (keep > static_cast<int>((*r)->marker_rows))
+          return Fail(path, "cannot keep " + std::to_string(keep) + " iterations: the file has " + std::to_string((*r)->marker_rows));
+        return Salvage(**r, keep);
+      }
+    }
+  }
   Result<DesignFile> existing = ReadDesignFile(path, {.arrays = false});
   if (!existing.ok()) return existing.status();
   const int stored = static_cast<int>(existing->iterations.size());
-  if (keep < 0 || keep > stored)
+  if (keep < 0) keep = stored;
+  if (keep > stored)
     return Fail(path, "cannot keep " + std::to_string(keep) + " iterations: the file has " + std::to_string(stored));
   auto w = std::unique_ptr<DesignFileWriter>(new DesignFileWriter);
   w->impl_ = std::make_unique<Impl>();
@@ -370,8 +531,7 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
   m.path = path;
   m.faces = static_cast<int>(existing->header.garment.faces.rows());
   m.vertices = static_cast<int>(existing->header.garment.vertices.rows());
-  Id fapl = WriterAccess(true);
-  m.file = Id(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl), H5Fclose);
+  m.file = Id(H5Fopen(path.c_str(), H5F_ACC_RDWR, WriterAccess()), H5Fclose);
   if (!m.file.ok()) return Fail(path, "cannot open the design file for writing");
   m.iterations = Id(H5Gopen2(m.file, "iterations", H5P_DEFAULT), H5Gclose);
   // The commit marker first, so a crash in between leaves a file that reads as `keep` iterations.
@@ -383,6 +543,42 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
   // appended to as before.
   H5Fstart_swmr_write(m.file);
   w->count_ = keep;
+  return w;
+}
+
+// Rebuilds the file of a killed writer: HDF5 1.10 is not crash-safe even in SWMR mode. Killed at
+// random moments while appending (store/design_file_stress.cpp), about one writer in 150 left a
+// file whose end of allocation lagged the space its metadata referred to (appending failed with
+// "addr overflow"), a dataset shorter than the commit marker, or a chunk index block with a bad
+// checksum (tens of committed rows unreadable; a SWMR reader retried it with doubling sleeps for
+// hours). Every iteration that reads back whole is copied, in order, into a fresh file that then
+// replaces the old one; the first that does not ends the copy (a resumed job recomputes the rest).
+Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Salvage(const DesignFileReader& r, int keep) {
+  const std::string tmp = r.path + ".salvage";
+  Result<std::unique_ptr<DesignFileWriter>> w = Create(tmp, r.header);
+  if (!w.ok()) return w.status();
+  const hsize_t wanted = keep >= 0 ? static_cast<hsize_t>(keep) : r.marker_rows, rows = std::min(wanted, r.rows);
+  std::string stop = rows < wanted ? "iteration " + std::to_string(rows) + " is incomplete" : "";
+  for (hsize_t i = 0; i < rows; ++i) {
+    BesoIteration it;
+    if (Status st = ReadIteration(r, i, /*arrays=*/true, &it); !st.ok()) {
+      stop = st.message();
+      break;
+    }
+    if (Status st = (*w)->Append(it); !st.ok()) {
+      std::filesystem::remove(tmp);
+      return st;
+    }
+  }
+  (*w)->repair_note_ = "rebuilt after its writer was killed: kept " + std::to_string((*w)->num_iterations()) + " of " +
+                       std::to_string(wanted) + " iterations" + (stop.empty() ? "" : " (" + stop + ")");
+  std::error_code ec;
+  std::filesystem::rename(tmp, r.path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp);
+    return Fail(r.path, "cannot replace the file with its repaired copy: " + ec.message());
+  }
+  (*w)->impl_->path = r.path;
   return w;
 }
 
@@ -424,117 +620,19 @@ Status DesignFileWriter::Append(const BesoIteration& it) {
 }
 
 Result<DesignFile> ReadDesignFile(const std::string& path, const DesignFileReadOptions& options) {
-  SilenceHdf5();
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) return Fail(path, "no such file");
-  {
-    char signature[8] = {};
-    std::ifstream(path, std::ios::binary).read(signature, 8);
-    if (std::memcmp(signature, "\x89HDF\r\n\x1a\n", 8) != 0) return Fail(path, "not an HDF5 file");
-  }
-  // Without HDF5's file lock, so that a design file can be read while its job is still writing it
-  // (the writer flushes whole iterations; rows beyond /iterations/iteration are ignored).
-  Id fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
-  H5Pset_file_locking(fapl, false, true);
-  // SWMR read sees the last flushed iteration of a file being written, or of one whose writer was
-  // killed (a plain open refuses such a file); files written before SWMR open plainly.
-  Id file(H5Fopen(path.c_str(), H5F_ACC_RDONLY | H5F_ACC_SWMR_READ, fapl), H5Fclose);
-  if (!file.ok()) file = Id(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl), H5Fclose);
-  if (!file.ok()) return Fail(path, "cannot open the HDF5 file (damaged?)");
-  std::string format;
-  int version = 0;
-  if (!ReadStringAttribute(file, "format", &format) || format != kFormat)
-    return Fail(path, "not a kgd design file (attribute format is not \"" + std::string(kFormat) + "\")");
-  if (!ReadIntAttribute(file, "format_version", &version) || version != kFormatVersion)
-    return Fail(path, "design file format_version " + std::to_string(version) + " is not supported (this kgd reads " +
-                          std::to_string(kFormatVersion) + ")");
+  Result<std::unique_ptr<DesignFileReader>> r = OpenDesignFileReader(path, /*salvage=*/false);
+  if (!r.ok()) return r.status();
+  const DesignFileReader& reader = **r;
+  if (options.only_iteration >= static_cast<int>(reader.rows))
+    return Fail(path, "iteration " + std::to_string(options.only_iteration) + " is not stored (the file has " +
+                          std::to_string(reader.rows) + " iterations, 0.." + std::to_string(static_cast<int>(reader.rows) - 1) + ")");
   DesignFile out;
-  DesignFileHeader& h = out.header;
-  {
-    Id job(H5Gopen2(file, "job", H5P_DEFAULT), H5Gclose);
-    std::string settings;
-    if (!job.ok() || !ReadStringAttribute(job, "scene", &h.scene) || !ReadStringAttribute(job, "body", &h.body) ||
-        !ReadStringAttribute(job, "settings", &settings))
-      return Fail(path, "/job is missing or incomplete");
-    Result<BesoSettings> s = BesoSettingsFromJson(settings);
-    if (!s.ok()) return Fail(path, "/job settings: " + s.message());
-    h.settings = *s;
+  out.header = reader.header;
+  out.iterations.resize(reader.rows);
+  for (hsize_t i = 0; i < reader.rows; ++i) {
+    const bool arrays = options.arrays && (options.only_iteration < 0 || options.only_iteration == static_cast<int>(i));
+    if (Status st = ReadIteration(reader, i, arrays, &out.iterations[i]); !st.ok()) return st;
   }
-  {
-    Id g(H5Gopen2(file, "garment", H5P_DEFAULT), H5Gclose);
-    if (!g.ok()) return Fail(path, "/garment is missing");
-    const std::vector<hsize_t> vs = Shape(g, "rest_vertices"), fs = Shape(g, "faces"), as = Shape(g, "rest_area"),
-                               is = Shape(g, "initial_positions"), ts = Shape(g, "attachment_faces");
-    if (vs.size() != 2 || vs[1] != 3 || fs.size() != 2 || fs[1] != 3 || as != std::vector<hsize_t>{fs[0]} || is != vs ||
-        ts.size() != 1)
-      return Fail(path, "/garment datasets are missing or have inconsistent shapes");
-    std::vector<double> rest(vs[0] * 3), initial(vs[0] * 3);
-    std::vector<int> faces(fs[0] * 3);
-    h.rest_area_m2.resize(fs[0]);
-    h.attachment_faces.resize(ts[0]);
-    if (!ReadAll(g, "rest_vertices", H5T_NATIVE_DOUBLE, rest.data()) || !ReadAll(g, "faces", H5T_NATIVE_INT, faces.data()) ||
-        !ReadAll(g, "rest_area", H5T_NATIVE_DOUBLE, h.rest_area_m2.data()) ||
-        !ReadAll(g, "initial_positions", H5T_NATIVE_DOUBLE, initial.data()) ||
-        (ts[0] > 0 && !ReadAll(g, "attachment_faces", H5T_NATIVE_INT, h.attachment_faces.data())))
-      return Fail(path, "cannot read /garment");
-    h.garment.vertices = FromRowMajor(rest);
-    h.initial = FromRowMajor(initial);
-    h.garment.faces.resize(fs[0], 3);
-    for (hsize_t f = 0; f < fs[0]; ++f)
-      for (int k = 0; k < 3; ++k) {
-        const int v = faces[3 * f + k];
-        if (v < 0 || v >= static_cast<int>(vs[0]))
-          return Fail(path, "/garment/faces row " + std::to_string(f) + " has vertex index " + std::to_string(v) + " out of range");
-        h.garment.faces(f, k) = v;
-      }
-  }
-  Id its(H5Gopen2(file, "iterations", H5P_DEFAULT), H5Gclose);
-  if (!its.ok()) return Fail(path, "/iterations is missing");
-  const std::vector<hsize_t> ns = Shape(its, "iteration");
-  if (ns.size() != 1) return Fail(path, "/iterations/iteration is missing");
-  const hsize_t n = ns[0], nf = h.garment.faces.rows(), nv = h.garment.vertices.rows();
-  for (const std::string& name : DesignFileMetricNames()) {
-    const std::vector<hsize_t> s = Shape(its, name.c_str());
-    if (s.size() != 1 || s[0] < n) return Fail(path, "/iterations/" + name + " is missing or shorter than /iterations/iteration");
-  }
-  const std::vector<std::vector<hsize_t>> array_shapes = {{nf}, {nv, 3}, {nf}, {nf}};
-  for (int a = 0; a < 4; ++a) {
-    std::vector<hsize_t> s = Shape(its, kArrayNames[a]);
-    if (s.size() < 1 || s[0] < n || std::vector<hsize_t>(s.begin() + 1, s.end()) != array_shapes[a])
-      return Fail(path, std::string("/iterations/") + kArrayNames[a] + " is missing or does not match the garment");
-  }
-  out.iterations.resize(n);
-  for (hsize_t i = 0; i < n; ++i) {
-    BesoIteration& it = out.iterations[i];
-    bool ok = ReadRow(its, "iteration", H5T_NATIVE_INT, i, &it.iteration);
-    int status = 0;
-    ok = ok && ReadRow(its, "status", H5T_NATIVE_INT, i, &status);
-    const int last = static_cast<int>(kLastSolveStatus);
-    if (ok && (status < 0 || status > last))
-      return Fail(path, "/iterations/status row " + std::to_string(i) + " holds " + std::to_string(status) +
-                            ", not a solver status (0-" + std::to_string(last) + ")");
-    it.status = static_cast<SolveStatus>(status);
-    for (const MetricSpec& s : Metrics())
-      ok = ok && (s.integer ? ReadRow(its, s.name, H5T_NATIVE_INT, i, &(it.*(s.whole)))
-                            : ReadRow(its, s.name, H5T_NATIVE_DOUBLE, i, &(it.*(s.real))));
-    if (!ok) return Fail(path, "cannot read the metrics of iteration row " + std::to_string(i));
-    if (it.iteration != static_cast<int>(i))
-      return Fail(path, "/iterations/iteration row " + std::to_string(i) + " holds " + std::to_string(it.iteration));
-    if (!options.arrays || (options.only_iteration >= 0 && options.only_iteration != static_cast<int>(i))) continue;
-    it.design.resize(nf);
-    std::vector<double> x(nv * 3);
-    it.energy_density_Pa.resize(nf);
-    it.sensitivity.resize(nf);
-    ok = ReadRow(its, "design", H5T_NATIVE_UINT8, i, it.design.data()) && ReadRow(its, "positions", H5T_NATIVE_DOUBLE, i, x.data()) &&
-         ReadRow(its, "energy_density_Pa", H5T_NATIVE_DOUBLE, i, it.energy_density_Pa.data()) &&
-         ReadRow(its, "sensitivity", H5T_NATIVE_DOUBLE, i, it.sensitivity.data());
-    if (!ok) return Fail(path, "cannot read the arrays of iteration " + std::to_string(i));
-    it.positions = FromRowMajor(x);
-    if (i == 0) it.sensitivity.resize(0);
-  }
-  if (options.only_iteration >= static_cast<int>(n))
-    return Fail(path, "iteration " + std::to_string(options.only_iteration) + " is not stored (the file has " + std::to_string(n) +
-                          " iterations, 0.." + std::to_string(static_cast<int>(n) - 1) + ")");
   return out;
 }
 

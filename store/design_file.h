@@ -25,7 +25,10 @@
 // cost: design_file.cpp; `h5repack -f GZIP=4` packs a finished file). Datasets grow by one row per
 // Append. /iterations/iteration is written last: its length is the number of complete
 // iterations, and a reader (or a resumed writer) ignores rows beyond it. The writer flushes the file
-// after every iteration (an interrupted `kgd design` resumes from the last one).
+// after every iteration (an interrupted `kgd design` resumes from the last one). HDF5 is not
+// crash-safe: a writer killed mid-append can damage rows it had committed (about one kill in 150).
+// Reopen then rebuilds the file from the iterations that read back whole, and readers give up on a
+// damaged block within a second instead of retrying it for hours.
 #pragma once
 
 #include <memory>
@@ -57,25 +60,33 @@ struct DesignFile {
 // Names of the per-iteration metric datasets, in table order.
 const std::vector<std::string>& DesignFileMetricNames();
 
+struct DesignFileReader;
+
 class DesignFileWriter {
  public:
   // Creates (or overwrites) `path` with the header and no iterations.
   static Result<std::unique_ptr<DesignFileWriter>> Create(const std::string& path, const DesignFileHeader& header);
-  // Opens an existing file to append after its first `keep` iterations (later ones are dropped).
-  static Result<std::unique_ptr<DesignFileWriter>> Reopen(const std::string& path, int keep);
+  // Opens an existing file to append after its first `keep` iterations (later ones are dropped;
+  // keep < 0: all). A file whose writer was killed is first rebuilt from the iterations that read back
+  // whole, which may be fewer than `keep`: num_iterations() says how many were kept.
+  static Result<std::unique_ptr<DesignFileWriter>> Reopen(const std::string& path, int keep = -1);
   ~DesignFileWriter();
 
   // Appends one iteration (its index must be the number stored so far) and flushes it to disk.
   Status Append(const BesoIteration& iteration);
   int num_iterations() const { return count_; }
+  // Empty, or what Reopen did to a killed writer's file ("rebuilt ...: kept K of N iterations").
+  const std::string& repair_note() const { return repair_note_; }
   int faces() const;
   int vertices() const;
 
  private:
   DesignFileWriter() = default;
+  static Result<std::unique_ptr<DesignFileWriter>> Salvage(const DesignFileReader& reader, int keep);
   struct Impl;
   std::unique_ptr<Impl> impl_;
   int count_ = 0;
+  std::string repair_note_;
 };
 
 struct DesignFileReadOptions {

@@ -133,48 +133,103 @@ TEST(DesignFile, ReopenKeepsThePrefixAndResumedRunsMatchUninterruptedOnes) {
   std::filesystem::remove(path);
 }
 
-// SWMR: a writer killed with SIGKILL at any moment leaves a file that reads (every flushed iteration
-// intact, bit for bit) and that a new writer reopens and appends to.
-TEST(DesignFile, AWriterKilledAtAnyMomentLeavesAReadableFile) {
+// Appends f.run's iterations (renumbered 0, 1, ...) to `path` in a child process: forever, or `count`
+// of them and then waits. Returns the child's pid once the file exists.
+pid_t StartWriter(const Fixture& f, const std::string& path, int count) {
+  std::filesystem::remove(path + ".ready");
+  const pid_t child = fork();
+  if (child == 0) {
+    auto w = DesignFileWriter::Create(path, f.header);
+    if (!w.ok()) _exit(1);
+    for (int k = 0; k < count; ++k) {
+      BesoIteration it = f.run[k % f.run.size()];
+      it.iteration = k;
+      if (!(*w)->Append(it).ok()) _exit(2);
+    }
+    std::ofstream(path + ".ready") << "1";
+    for (int k = count;; ++k) {
+      if (count > 0) {
+        pause();
+        continue;
+      }
+      BesoIteration it = f.run[k % f.run.size()];
+      it.iteration = k;
+      if (!(*w)->Append(it).ok()) _exit(2);
+    }
+  }
+  for (int waited = 0; child > 0 && !std::filesystem::exists(path + ".ready") && waited < 60000; ++waited) usleep(1000);
+  std::filesystem::remove(path + ".ready");
+  return child;
+}
+
+// Iterations 0..n-1 of `d` are f.run's, renumbered.
+void ExpectRunPrefix(const Fixture& f, const DesignFile& d, int n) {
+  ASSERT_EQ(static_cast<int>(d.iterations.size()), n);
+  for (int k = 0; k < n; ++k) {
+    BesoIteration expected = f.run[k % f.run.size()];
+    expected.iteration = k;
+    ExpectSame(d.iterations[k], expected);
+  }
+}
+
+// A writer killed between iterations leaves its file marked "open for write" (SWMR); Reopen rebuilds
+// it with every iteration, says so, and appends.
+TEST(DesignFile, AKilledWritersFileIsRebuiltWithEveryIteration) {
+  const Fixture f = MakeRun(3);
+  const std::string path = TempPath("killed_idle.h5");
+  const pid_t child = StartWriter(f, path, 5);
+  ASSERT_GT(child, 0);
+  kill(child, SIGKILL);
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the writer stopped by itself";
+  auto w = DesignFileWriter::Reopen(path);
+  ASSERT_TRUE(w.ok()) << w.message();
+  EXPECT_EQ((*w)->num_iterations(), 5);
+  EXPECT_EQ((*w)->repair_note(), "rebuilt after its writer was killed: kept 5 of 5 iterations");
+  BesoIteration next = f.run[5 % f.run.size()];
+  next.iteration = 5;
+  ASSERT_TRUE((*w)->Append(next).ok());
+  w->reset();
+  const Result<DesignFile> d = ReadDesignFile(path);
+  ASSERT_TRUE(d.ok()) << d.message();
+  ExpectRunPrefix(f, *d, 6);
+  EXPECT_FALSE(std::filesystem::exists(path + ".salvage"));
+  // A file closed by its writer reopens in place, without a note.
+  auto again = DesignFileWriter::Reopen(path, 4);
+  ASSERT_TRUE(again.ok()) << again.message();
+  EXPECT_EQ((*again)->num_iterations(), 4);
+  EXPECT_TRUE((*again)->repair_note().empty());
+  std::filesystem::remove(path);
+}
+
+// SIGKILL at any moment of the append cycle. HDF5 1.10 is not crash-safe even in SWMR mode (about one
+// kill in 150 damages committed rows: design_file.cpp, Salvage), so what holds is: reading never hangs,
+// Reopen yields a file whose iterations are a prefix of what was written, bit for bit, and appending
+// to it works.
+TEST(DesignFile, AWriterKilledAtAnyMomentLeavesAFileThatReopensWithAnIntactPrefix) {
   const Fixture f = MakeRun(3);
   const std::string path = TempPath("killed.h5");
   for (int trial = 0; trial < 6; ++trial) {
-    const pid_t child = fork();
-    ASSERT_GE(child, 0);
-    if (child == 0) {
-      auto w = DesignFileWriter::Create(path, f.header);
-      if (!w.ok()) _exit(1);
-      std::ofstream(path + ".ready") << "1";
-      for (int k = 0;; ++k) {
-        BesoIteration it = f.run[k % f.run.size()];
-        it.iteration = k;
-        if (!(*w)->Append(it).ok()) _exit(2);
-      }
-    }
-    while (!std::filesystem::exists(path + ".ready")) usleep(1000);
+    const pid_t child = StartWriter(f, path, 0);
+    ASSERT_GT(child, 0);
     usleep(20000 + 37000 * trial);  // different moments of the append cycle
     kill(child, SIGKILL);
     int status = 0;
     waitpid(child, &status, 0);
-    std::filesystem::remove(path + ".ready");
     ASSERT_TRUE(WIFSIGNALED(status)) << "the writer stopped by itself";
 
-    Result<DesignFile> read = ReadDesignFile(path);
-    ASSERT_TRUE(read.ok()) << "trial " << trial << ": " << read.message();
-    const int n = static_cast<int>(read->iterations.size());
-    EXPECT_GT(n, 0) << "trial " << trial;
-    for (int k = 0; k < n; ++k) {
-      BesoIteration expected = f.run[k % f.run.size()];
-      expected.iteration = k;
-      ExpectSame(read->iterations[k], expected);
-    }
-    auto w = DesignFileWriter::Reopen(path, n);
-    ASSERT_TRUE(w.ok()) << w.message();
+    auto w = DesignFileWriter::Reopen(path);
+    ASSERT_TRUE(w.ok()) << "trial " << trial << ": " << w.message();
+    const int n = (*w)->num_iterations();
+    EXPECT_FALSE((*w)->repair_note().empty());
     BesoIteration next = f.run[n % f.run.size()];
     next.iteration = n;
-    ASSERT_TRUE((*w)->Append(next).ok());
+    ASSERT_TRUE((*w)->Append(next).ok()) << "trial " << trial;
     w->reset();
-    EXPECT_EQ(ReadDesignFile(path, {.arrays = false})->iterations.size(), static_cast<size_t>(n + 1));
+    const Result<DesignFile> read = ReadDesignFile(path);
+    ASSERT_TRUE(read.ok()) << "trial " << trial << ": " << read.message();
+    ExpectRunPrefix(f, *read, n + 1);
   }
   std::filesystem::remove(path);
 }
