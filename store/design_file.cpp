@@ -1,5 +1,7 @@
 #include "store/design_file.h"
 
+#include <unistd.h>
+
 #include <hdf5.h>
 
 #include <cstring>
@@ -511,6 +513,7 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
     // refuses. Such a file is rebuilt (Salvage) rather than appended to in place.
     Id probe(H5Fopen(path.c_str(), H5F_ACC_RDWR, WriterAccess()), H5Fclose);
     if (!probe.ok() && std::filesystem::is_regular_file(path)) {
+      if (access(path.c_str(), W_OK) != 0) return Fail(path, "not writable");
       Result<std::unique_ptr<DesignFileReader>> r = OpenDesignFileReader(path, /*salvage=*/true);
       if (r.ok()) {
         if (keep > static_cast<int>((*r)->marker_rows))
