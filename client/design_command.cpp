@@ -129,7 +129,7 @@ int RunDesign(const DesignOptions& o) {
   if (o.verbose)
     scene.solver.on_iteration = [](const IterationInfo& i) {
       std::fprintf(stderr, "  newton %4d  E %.12g J  |g| %.3e N  alpha %.3g  delta %.3g%s\n", i.iteration, i.energy_J, i.grad_norm_N,
-                   i.step_length, i.regularization, i.used_pcg ? "  (pcg)" : "");
+                   i.step_length, i.regularization, i.used_pcg ? "  (pcg)" : i.local ? "  (local)" : "");
     };
   const BesoSettings& settings = header.settings;
   const double garment_area = header.rest_area_m2.sum(), final_area = settings.budget * garment_area;

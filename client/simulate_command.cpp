@@ -49,6 +49,7 @@ nlohmann::json ResultJson(const SceneSpec& scene, const SimulationResult& r) {
   j["iterations"] = r.solve.iterations;
   j["seconds"] = r.solve.seconds;
   j["factorizations"] = r.solve.factorizations;
+  j["local_steps"] = r.solve.local_steps;
   j["vertices"] = r.positions.rows();
   j["faces"] = r.face_density_Pa.size();
   j["inverted_faces"] = r.inverted_faces;
@@ -73,7 +74,8 @@ void PrintHuman(const SceneSpec& scene, const SimulationResult& r) {
               r.reinforced_area_m2, r.garment_area_m2 > 0 ? 100.0 * r.reinforced_area_m2 / r.garment_area_m2 : 0.0);
   std::printf("reinforced density    %.6g J/m^2\n", r.reinforced_density_J_per_m2);
   std::printf("gradient norm         %.3g N (tolerance %.3g N)\n", s.grad_norm_N, s.tolerance_N);
-  std::printf("iterations            %d (%d factorizations, %d PCG solves)\n", s.iterations, s.factorizations, s.pcg_solves);
+  std::printf("iterations            %d (%d factorizations, %d PCG solves, %d local steps)\n", s.iterations, s.factorizations,
+              s.pcg_solves, s.local_steps);
   std::printf("wall time             %.3f s\n", s.seconds);
   for (const ClampForce& c : r.clamp_forces)
     std::printf("clamp %-15s (%.6g, %.6g, %.6g) N, |F| = %.6g N\n", c.name.c_str(), c.force_N.x(), c.force_N.y(),
@@ -148,7 +150,7 @@ int RunSimulate(const SimulateOptions& o) {
   if (o.verbose)
     scene->solver.on_iteration = [](const IterationInfo& i) {
       std::fprintf(stderr, "iter %4d  E %.12g J  |g| %.3e N  alpha %.3g  delta %.3g%s\n", i.iteration, i.energy_J,
-                   i.grad_norm_N, i.step_length, i.regularization, i.used_pcg ? "  (pcg)" : "");
+                   i.grad_norm_N, i.step_length, i.regularization, i.used_pcg ? "  (pcg)" : i.local ? "  (local)" : "");
     };
   if (o.design == "all_cloth") scene->design.assign(scene->design.size(), kCloth);
   if (o.design == "all_reinforced") scene->design.assign(scene->design.size(), kReinforced);

@@ -354,7 +354,7 @@ Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* f
   if (doc.contains("solver")) {
     const json& so = doc["solver"];
     KGD_RETURN_IF_ERROR(r.CheckKeys(so, "solver", {"method", "grad_tol", "max_iterations", "reuse_factorization", "lbfgs_history",
-                                                   "project_contact_crossings"}));
+                                                   "project_contact_crossings", "local_steps"}));
     std::string method = "newton";
     KGD_RETURN_IF_ERROR(r.Choice(so, "solver", "method", {"newton", "lbfgs"}, &method));
     s.solver.method = method == "newton" ? SolverMethod::kNewton : SolverMethod::kLbfgs;
@@ -369,6 +369,7 @@ Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* f
     s.solver.lbfgs_history = static_cast<int>(hist);
     KGD_RETURN_IF_ERROR(r.Bool(so, "solver", "reuse_factorization", &s.solver.reuse_factorization));
     KGD_RETURN_IF_ERROR(r.Bool(so, "solver", "project_contact_crossings", &s.solver.project_contact_crossings));
+    KGD_RETURN_IF_ERROR(r.Bool(so, "solver", "local_steps", &s.solver.local_steps));
   }
 
   // Whole-model checks (materials, clamp indices, ...) with the scene file as context.
@@ -548,7 +549,8 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
                    {"max_iterations", s.solver.max_iterations},
                    {"reuse_factorization", s.solver.reuse_factorization},
                    {"lbfgs_history", s.solver.lbfgs_history},
-                   {"project_contact_crossings", s.solver.project_contact_crossings}};
+                   {"project_contact_crossings", s.solver.project_contact_crossings},
+                   {"local_steps", s.solver.local_steps}};
   std::ofstream out(dir / "scene.json");
   if (!out) return Status::Error((dir / "scene.json").string() + ": cannot open for writing");
   out << doc.dump(2) << '\n';

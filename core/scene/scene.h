@@ -32,7 +32,8 @@
 //   "clamps": [{"name": "moving", "vertices": "moving.txt" | [..] | {"box_min": [x,y,z], "box_max": [x,y,z]},
 //               "axes": "xyz", "displacement_m": [0, 0, 0.01]}],
 //   "solver": {"method": "newton" | "lbfgs", "grad_tol": 1e-7, "max_iterations": 200,
-//              "reuse_factorization": false, "lbfgs_history": 20, "project_contact_crossings": true}
+//              "reuse_factorization": false, "lbfgs_history": 20, "project_contact_crossings": true,
+//              "local_steps": true}
 // }
 // Attachment anchors are the centroids of the attached faces on the body in the simulated pose (for a
 // garment of its own: in the initial positions). Clamp boxes select vertices by rest position.

@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <Eigen/CholmodSupport>
+#include <Eigen/SparseCholesky>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -30,6 +31,56 @@ void AddFree(const Eigen::VectorXd& step, double alpha, const std::vector<int>& 
   double* data = to->data();
   for (size_t d = 0; d < free_index.size(); ++d)
     if (free_index[d] >= 0) data[d] += alpha * step[free_index[d]];
+}
+
+// A Newton step on the region that holds the residual (SolverSettings::local_steps), or false when the
+// residual is spread out or the region's block is not positive definite. `H` is the upper triangle of
+// the Hessian over the free coordinates, `delta` the damping.
+bool LocalStep(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& g, double delta, Eigen::VectorXd* p) {
+  const int n = static_cast<int>(g.size());
+  const double g_max = g.cwiseAbs().maxCoeff();
+  std::vector<char> in(n, 0);
+  double core2 = 0;
+  for (int i = 0; i < n; ++i)
+    if (std::abs(g[i]) >= 0.01 * g_max) {
+      in[i] = 1;
+      core2 += g[i] * g[i];
+    }
+  if (core2 < 0.99 * g.squaredNorm()) return false;
+  // Two rings of neighbours through the Hessian's pattern: the coordinates the core pulls on, and theirs.
+  for (int ring = 0; ring < 2; ++ring) {
+    std::vector<char> next = in;
+    for (int j = 0; j < n; ++j)
+      for (Eigen::SparseMatrix<double>::InnerIterator e(H, j); e; ++e) {
+        if (in[e.index()]) next[j] = 1;
+        if (in[j]) next[e.index()] = 1;
+      }
+    in.swap(next);
+  }
+  std::vector<int> local(n, -1);
+  int m = 0;
+  for (int i = 0; i < n; ++i)
+    if (in[i]) local[i] = m++;
+  if (m > n / 3) return false;
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int j = 0; j < n; ++j) {
+    if (local[j] < 0) continue;
+    for (Eigen::SparseMatrix<double>::InnerIterator e(H, j); e; ++e)
+      if (local[e.index()] >= 0) entries.emplace_back(local[e.index()], local[j], e.value());
+    entries.emplace_back(local[j], local[j], delta);
+  }
+  Eigen::SparseMatrix<double> A(m, m);
+  A.setFromTriplets(entries.begin(), entries.end());
+  const Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Upper> llt(A);
+  if (llt.info() != Eigen::Success) return false;
+  Eigen::VectorXd g_local(m);
+  for (int i = 0; i < n; ++i)
+    if (local[i] >= 0) g_local[local[i]] = g[i];
+  const Eigen::VectorXd p_local = llt.solve(-g_local);
+  *p = Eigen::VectorXd::Zero(n);
+  for (int i = 0; i < n; ++i)
+    if (local[i] >= 0) (*p)[i] = p_local[local[i]];
+  return true;
 }
 
 // Our factors have thousands of small supernodes (fronts of tens to a few hundred rows). On them
@@ -213,6 +264,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
     bool accepted = false;
     bool fresh_factor = false;
     bool used_pcg = false;
+    bool used_local = false;
     double alpha = 1.0;
     for (int attempt = 0; attempt < 8 && !accepted; ++attempt) {
       Eigen::VectorXd p;
@@ -249,7 +301,14 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
         nt.pcg_failures_in_row = have_step ? 0 : nt.pcg_failures_in_row + 1;
         if (nt.pcg_failures_in_row >= 2) pcg_allowed = false;
       }
-      // 2) Fresh factorization of H + delta I (raising delta until CHOLMOD succeeds).
+      // 2) A step on the region that holds the residual. Not for a solve's first step: that one meets
+      //    whatever the caller changed (a new design, a new pose), which moves the whole garment.
+      if (!have_step && settings.local_steps && attempt == 0 && it > 0) {
+        t = Clock::now();
+        have_step = used_local = LocalStep(nt.H, g, delta, &p);
+        rep.solve_s += Seconds(t, Clock::now());
+      }
+      // 3) Fresh factorization of H + delta I (raising delta until CHOLMOD succeeds).
       if (!have_step) {
         t = Clock::now();
         if (nt.factor_nonzeros == 0) {
@@ -282,6 +341,10 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       }
       const double slope = g.dot(p);
       if (!(slope < 0) || !p.allFinite()) {
+        if (used_local) {
+          used_local = false;
+          continue;
+        }
         delta *= 100.0;
         fresh_factor = false;
         nt.have_factor = false;
@@ -309,6 +372,10 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
         }
       }
       rep.line_search_s += Seconds(t, Clock::now());
+      if (!accepted && used_local) {
+        used_local = false;  // the global step next, at the same regularization
+        continue;
+      }
       if (!accepted) {
         // Retry with a fresh factorization and a larger regularization (a shorter, more gradient-like step).
         if (fresh_factor) delta *= 100.0;
@@ -340,7 +407,8 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
     rep.assembly_s += Seconds(t, Clock::now());
     ++rep.energy_evaluations;
     g = GatherFree(g_full, free_index, n);
-    if (settings.on_iteration) settings.on_iteration({it + 1, E, g.norm(), alpha, delta, used_pcg});
+    if (used_local) ++rep.local_steps;
+    if (settings.on_iteration) settings.on_iteration({it + 1, E, g.norm(), alpha, delta, used_pcg, used_local});
     stalled_steps = (alpha < 1.0 && E_before - E <= 1e-12 * std::abs(E_before)) ? stalled_steps + 1 : 0;
   }
 }
@@ -356,6 +424,7 @@ void AccumulateSolve(SolveReport* total, const SolveReport& later) {
   sum.factorizations += total->factorizations;
   sum.pcg_solves += total->pcg_solves;
   sum.pcg_iterations += total->pcg_iterations;
+  sum.local_steps += total->local_steps;
   sum.energy_evaluations += total->energy_evaluations;
   *total = sum;
 }

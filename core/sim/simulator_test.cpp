@@ -113,6 +113,56 @@ TEST(Simulator, ProjectingContactCrossingsSavesNewtonIterations) {
   EXPECT_NEAR(on.second, off.second, 1e-4 * off.second);
 }
 
+// Local steps: where the residual of a warm re-solve has gathered in a small region, Newton steps on that
+// region alone replace global factorizations. Same equilibria (the tolerance is on the whole residual),
+// fewer global factorizations.
+TEST(Simulator, LocalStepsReplaceGlobalFactorizationsAndReachTheSameEquilibria) {
+  SleeveOptions o;
+  o.around = 32;
+  o.sleeve_halflength_m = 0.10;
+  o.rest_on_body = true;
+  o.reinforced = true;
+  SceneSpec s = SleeveOnLimbScene(o);
+  auto run = [&](bool local, std::vector<double>* energies) {
+    auto model = BuildGarmentModel(s);
+    EXPECT_TRUE(model.ok());
+    GarmentSystem sys(std::move(model).value(), s.initial);
+    Simulator sim(&sys);
+    Positions x = s.initial;
+    SolverSettings settings;
+    settings.grad_tol = 1e-6;
+    settings.local_steps = local;
+    SolveReport total = sim.Solve(&x, settings);
+    EXPECT_TRUE(total.converged()) << total.message;
+    std::vector<uint8_t> design = sys.model().design;
+    int flipped = 0;
+    for (int step = 0; step < 8; ++step) {
+      for (size_t f = 0; f < design.size() && flipped < static_cast<int>((step + 1) * 0.015 * design.size()); f += 7)
+        if (design[f] == kReinforced) {
+          design[f] = kCloth;
+          ++flipped;
+        }
+      sys.SetDesign(design);
+      const SolveReport r = sim.Solve(&x, settings);
+      EXPECT_TRUE(r.converged()) << r.message;
+      EXPECT_LE(r.grad_norm_N, r.tolerance_N);
+      energies->push_back(r.energy_J);
+      AccumulateSolve(&total, r);
+    }
+    std::printf("local %d: %d Newton iterations, %d factorizations, %d local steps\n", local, total.iterations,
+                total.factorizations, total.local_steps);
+    return total;
+  };
+  std::vector<double> e_local, e_global;
+  const SolveReport with = run(true, &e_local);
+  const SolveReport without = run(false, &e_global);
+  EXPECT_GT(with.local_steps, 0);
+  EXPECT_EQ(without.local_steps, 0);
+  EXPECT_LT(with.factorizations, without.factorizations);
+  ASSERT_EQ(e_local.size(), e_global.size());
+  for (size_t k = 0; k < e_local.size(); ++k) EXPECT_NEAR(e_local[k], e_global[k], 1e-6 * e_global[k]) << "step " << k;
+}
+
 // Entries of the Cholesky factor of a Hessian pattern under one fill-reducing ordering, as counted by
 // CHOLMOD's analysis.
 double FactorNonzeros(const Eigen::SparseMatrix<double>& pattern, int ordering) {
