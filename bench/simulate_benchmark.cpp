@@ -73,6 +73,7 @@ void BM_WarmResolve(benchmark::State& state) {
   settings.method = state.range(0) == 2 ? SolverMethod::kLbfgs : SolverMethod::kNewton;
   settings.reuse_factorization = state.range(0) == 0;
   settings.project_contact_crossings = state.range(0) != 3;
+  settings.local_steps = state.range(0) != 4;
   settings.grad_tol = GradTol(state, 1);
   Positions x = s.initial;
   sim.Solve(&x, settings);
@@ -100,6 +101,7 @@ void BM_WarmResolve(benchmark::State& state) {
   state.counters["factorizations"] = double(total.factorizations) / steps;
   state.counters["pcg_solves"] = double(total.pcg_solves) / steps;
   state.counters["pcg_iterations"] = double(total.pcg_iterations) / steps;
+  state.counters["local_steps"] = double(total.local_steps) / steps;
   state.counters["assembly_ms"] = 1e3 * total.assembly_s / steps;
   state.counters["factor_ms"] = 1e3 * total.factorization_s / steps;
   state.counters["solve_ms"] = 1e3 * total.solve_s / steps;
@@ -109,9 +111,10 @@ void BM_WarmResolve(benchmark::State& state) {
   state.counters["factor_nnz"] = total.factor_nonzeros;
 }
 // method: 0 Newton reusing factorizations, 1 Newton factorizing every step (the default), 2 L-BFGS,
-// 3 as 1 without the line search's contact projection (SolverSettings::project_contact_crossings).
+// 3 as 1 without the line search's contact projection (SolverSettings::project_contact_crossings),
+// 4 as 1 without local steps (SolverSettings::local_steps).
 BENCHMARK(BM_WarmResolve)
-    ->ArgsProduct({{0, 1, 2, 3}, {4, 6}})
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {4, 6}})
     ->ArgNames({"method", "tol_exp"})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(20);
