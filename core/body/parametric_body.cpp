@@ -315,6 +315,18 @@ class PosedField {
         const V3 away = t[prims_[i].p.bone].linear() * (prims_[i].p.b - prims_[i].p.a).normalized();
         const V3 inner = away - toward;
         link.inner = inner.norm() > 1e-9 ? V3(inner.normalized()) : V3::Zero();
+        const V3 along = away + toward;
+        link.along = along.norm() > 1e-9 ? V3(along.normalized()) : V3::Zero();
+        // The crease flattens: where forearm meets biceps (calf meets thigh) the flesh gives way, so
+        // the girth round a bent joint stays what it was. Two rigid round limbs meeting at a bend
+        // theta have a concave side reaching r / cos(theta / 2) from the joint instead of r, and the
+        // fillet swells it by a quarter of its radius more; the pinch takes both back, fading over
+        // 1.25 r on either side of the bisector plane. Without it the sleeve of a bent elbow is
+        // stretched 1.2-1.35 all round (the MakeHuman elbow: 1.00-1.03), see docs/RESULTS.md.
+        const double bend = std::min(Eigen::AngleAxisd(t[prev.p.bone].linear().transpose() * t[prims_[i].p.bone].linear()).angle(), 150 * kDeg);
+        const double r = 0.5 * (prev.cap_b + prims_[i].cap_a);
+        link.pinch = r * (1.0 / std::cos(0.5 * bend) - 1.0) + 0.25 * link.blend;
+        link.pinch_width = 1.25 * r;
       }
       link.index = static_cast<int>(i);
       groups_[g].push_back(link);
@@ -329,6 +341,10 @@ class PosedField {
         const Prim& p = prims_[link.index];
         const double v = PrimitiveValue(p.p, p.cap_a, p.cap_b, bulge_[link.index], inverse_[link.index] * x);
         gv = m == 0 ? v : SmoothMin(gv, v, link.blend * ConcaveWeight(link, x));
+        if (m > 0 && link.pinch > 0) {
+          const double a = (x - link.joint).dot(link.along) / link.pinch_width;
+          if (std::abs(a) < 1) gv += link.pinch * ConcaveWeight(link, x) * (1 - a * a) * (1 - a * a);
+        }
       }
       f = g == 0 ? gv : SmoothMin(f, gv, group_blend_[g]);
     }
@@ -420,6 +436,8 @@ class PosedField {
     double blend = 0;            // fillet radius (m) at the concave side
     V3 joint = V3::Zero();       // posed joint centre
     V3 inner = V3::Zero();       // unit bisector of the concave side; zero for a straight joint
+    V3 along = V3::Zero();
+    double pinch = 0, pinch_width = 1;
   };
   // The fillet is confined to the concave side of a bent joint. A blend radius applied all around
   // would swell the joint: where two round cones overlap, smooth-min pushes the surface out by up to
@@ -798,16 +816,12 @@ Result<Positions> PoseBody(const ParametricBody& body, const JointAngles& angles
   return std::move(seq->front());
 }
 
-double LimbGirth(const ParametricBody& body, const JointAngles& angles, const Positions& posed, int bone, double t) {
-  const auto tr = BoneTransforms(body, angles);
-  const V3 a = tr[bone] * body.joint[bone], b = tr[bone] * BoneEnd(body, bone);
-  const V3 c = a + t * (b - a), n = (b - a).normalized();
-  double rmax = 0;
-  for (const BodyPrimitive& p : body.primitives)
-    if (p.bone == bone) rmax = std::max({rmax, p.r1_a, p.r2_a, p.r1_b, p.r2_b});
-  const double cutoff = 1.5 * rmax;
+namespace {
+
+// Length of the loop where the plane through `c` with unit normal `n` cuts the posed surface, keeping
+// the pieces within `cutoff` of c (the loop round one limb, not the other limbs the plane also cuts).
+double SectionLength(const Positions& posed, const Faces& f, const V3& c, const V3& n, double cutoff) {
   double length = 0;
-  const Faces& f = body.rest.faces;
   for (Eigen::Index i = 0; i < f.rows(); ++i) {
     V3 pts[2];
     int np = 0;
@@ -822,6 +836,31 @@ double LimbGirth(const ParametricBody& body, const JointAngles& angles, const Po
     length += (pts[1] - pts[0]).norm();
   }
   return length;
+}
+
+double LargestRadius(const ParametricBody& body, int bone) {
+  double rmax = 0;
+  for (const BodyPrimitive& p : body.primitives)
+    if (p.bone == bone) rmax = std::max({rmax, p.r1_a, p.r2_a, p.r1_b, p.r2_b});
+  return rmax;
+}
+
+}  // namespace
+
+double LimbGirth(const ParametricBody& body, const JointAngles& angles, const Positions& posed, int bone, double t) {
+  const auto tr = BoneTransforms(body, angles);
+  const V3 a = tr[bone] * body.joint[bone], b = tr[bone] * BoneEnd(body, bone);
+  return SectionLength(posed, body.rest.faces, a + t * (b - a), (b - a).normalized(), 1.5 * LargestRadius(body, bone));
+}
+
+double JointGirth(const ParametricBody& body, const JointAngles& angles, const Positions& posed, int bone) {
+  const auto tr = BoneTransforms(body, angles);
+  const int parent = body.parent[bone];
+  const V3 joint = tr[bone] * body.joint[bone];
+  const V3 toward = (joint - tr[parent] * body.joint[parent]).normalized();
+  const V3 away = (tr[bone] * BoneEnd(body, bone) - joint).normalized();
+  return SectionLength(posed, body.rest.faces, joint, (toward + away).normalized(),
+                       1.5 * std::max(LargestRadius(body, bone), LargestRadius(body, parent)));
 }
 
 }  // namespace kgd

@@ -120,6 +120,11 @@ Result<std::vector<Positions>> PoseSequence(const ParametricBody& body, const st
 // the loop around the bone. For the upper arm, forearm, thigh and shank.
 double LimbGirth(const ParametricBody& body, const JointAngles& angles, const Positions& posed, int bone, double t);
 
+// Girth round a joint (m): the loop where the plane through the joint that bisects the bend cuts
+// the posed surface. `bone` is the child (forearm for the elbow, shank for the knee); its parent must
+// carry primitives (not a clavicle).
+double JointGirth(const ParametricBody& body, const JointAngles& angles, const Positions& posed, int bone);
+
 // Position (rest) of the distal end of a bone: its first child's joint (the tip for hands, feet, head).
 Eigen::Vector3d BoneEnd(const ParametricBody& body, int bone);
 
