@@ -78,6 +78,7 @@ TEST_P(BesoAcceptance, DoublesTheDensityAndBeatsLineAndX) {
   std::printf("%s: %ld vertices, %zu iterations, area %.4f, density ratio %.4f (peak %.4f)\n", j.name,
               static_cast<long>(scene->garment.vertices.rows()), run->size(), last.area_fraction, last.density_ratio, peak);
   EXPECT_NEAR(last.area_fraction, j.budget, 0.5 * area.maxCoeff() / area.sum() + 1e-12);
+  EXPECT_GE(last.density_ratio, 2.0) << "along the design loop";
 
   // The final design, Line and X, each put on in the deformed pose the way the fully reinforced garment
   // of iteration 0 was (with friction an equilibrium depends on its path; docs/RESULTS.md).

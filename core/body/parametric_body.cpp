@@ -231,9 +231,13 @@ std::vector<Prim> Prims(const ParametricBody& body) {
 
 // Blend radius inside a chain grows with the joint's bend away from rest: a fillet where the inner
 // sides of a bent elbow or knee meet, nothing (a plain union) for a straight chain.
+// Bend of a joint (rad): the rotation between the two bones' frames, 0 for a straight chain.
+double Bend(const Eigen::Isometry3d& parent, const Eigen::Isometry3d& child) {
+  return Eigen::AngleAxisd(parent.linear().transpose() * child.linear()).angle();
+}
+
 double ChainBlend(const Eigen::Isometry3d& parent, const Eigen::Isometry3d& child) {
-  const double bend = Eigen::AngleAxisd(parent.linear().transpose() * child.linear()).angle();
-  return 0.04 * (1.0 - std::cos(bend));
+  return 0.04 * (1.0 - std::cos(Bend(parent, child)));
 }
 
 // Blend radii between groups (m, before scaling by height).
@@ -302,7 +306,7 @@ class PosedField {
         group_names_.push_back(prims_[i].group);
         double k = GroupBlend(prims_[i].group);
         // The groin: a fillet that widens as the hip flexes, like the crease of the real body.
-        if (prims_[i].p.bone == kThighL || prims_[i].p.bone == kThighR) k += 0.06 * (1.0 - std::cos(Eigen::AngleAxisd(t[kPelvis].linear().transpose() * t[prims_[i].p.bone].linear()).angle()));
+        if (prims_[i].p.bone == kThighL || prims_[i].p.bone == kThighR) k += 0.06 * (1.0 - std::cos(Bend(t[kPelvis], t[prims_[i].p.bone])));
         group_blend_.push_back(k * s);
       }
       ChainLink link;
@@ -323,7 +327,7 @@ class PosedField {
         // fillet swells it by a quarter of its radius more; the pinch takes both back, fading over
         // 1.25 r on either side of the bisector plane. Without it the sleeve of a bent elbow is
         // stretched 1.2-1.35 all round (the MakeHuman elbow: 1.00-1.03), see docs/RESULTS.md.
-        const double bend = std::min(Eigen::AngleAxisd(t[prev.p.bone].linear().transpose() * t[prims_[i].p.bone].linear()).angle(), 150 * kDeg);
+        const double bend = std::min(Bend(t[prev.p.bone], t[prims_[i].p.bone]), 150 * kDeg);
         const double r = 0.5 * (prev.cap_b + prims_[i].cap_a);
         link.pinch = r * (1.0 / std::cos(0.5 * bend) - 1.0) + 0.25 * link.blend;
         link.pinch_width = 1.25 * r;
@@ -340,11 +344,14 @@ class PosedField {
         const ChainLink& link = groups_[g][m];
         const Prim& p = prims_[link.index];
         const double v = PrimitiveValue(p.p, p.cap_a, p.cap_b, bulge_[link.index], inverse_[link.index] * x);
-        gv = m == 0 ? v : SmoothMin(gv, v, link.blend * ConcaveWeight(link, x));
-        if (m > 0 && link.pinch > 0) {
-          const double a = (x - link.joint).dot(link.along) / link.pinch_width;
-          if (std::abs(a) < 1) gv += link.pinch * ConcaveWeight(link, x) * (1 - a * a) * (1 - a * a);
+        if (m == 0) {
+          gv = v;
+          continue;
         }
+        const double concave = ConcaveWeight(link, x);
+        gv = SmoothMin(gv, v, link.blend * concave);
+        const double a = (x - link.joint).dot(link.along) / link.pinch_width;
+        if (link.pinch > 0 && std::abs(a) < 1) gv += link.pinch * concave * (1 - a * a) * (1 - a * a);
       }
       f = g == 0 ? gv : SmoothMin(f, gv, group_blend_[g]);
     }
@@ -436,8 +443,9 @@ class PosedField {
     double blend = 0;            // fillet radius (m) at the concave side
     V3 joint = V3::Zero();       // posed joint centre
     V3 inner = V3::Zero();       // unit bisector of the concave side; zero for a straight joint
-    V3 along = V3::Zero();
-    double pinch = 0, pinch_width = 1;
+    V3 along = V3::Zero();       // unit normal of the plane bisecting the bend
+    double pinch = 0;            // depth (m) the concave side is drawn in by, at the bisecting plane
+    double pinch_width = 1;      // distance (m) from that plane over which the pinch fades out
   };
   // The fillet is confined to the concave side of a bent joint. A blend radius applied all around
   // would swell the joint: where two round cones overlap, smooth-min pushes the surface out by up to
