@@ -35,7 +35,7 @@ test-sanitize:
 bench: build
 	bash bench/run.sh $(BUILD)
 
-# The design study of docs/RESULTS.md: all seven built-in scenes to the budget (about an hour).
+# The design study of docs/RESULTS.md: all seven built-in scenes to the budget (about ten minutes).
 study: build
 	bash scripts/design_study.sh $(BUILD)
 

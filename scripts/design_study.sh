@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The design study of docs/RESULTS.md: every built-in scene of the paper optimized with the paper's
 # settings (kgd design), then the final design beside a Line and an X of equal area (kgd baselines, for
-# the sleeves) and over the motion's frames (kgd evaluate). Long (about an hour on two cores); not
+# the sleeves) and over the motion's frames (kgd evaluate). Long (about ten minutes on two cores); not
 # part of `make test`.
 #   bash scripts/design_study.sh [BUILD_DIR] [OUT_DIR] [SCENE ...]
 set -euo pipefail

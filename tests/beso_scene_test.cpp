@@ -40,9 +40,9 @@ TEST(BesoScene, KneeFlexionFirstFortyIterations) {
   }
   const BesoIteration& last = run->back();
   std::printf("knee flexion, 40 iterations: area %.4f, density ratio %.4f\n", last.area_fraction, last.density_ratio);
-  // 1.576 on the body of 2026-11-22 (1.349 before the crease pinch; the full run reaches 2.6x at 10 %,
-  // docs/RESULTS.md): a floor well
-  // above the 1.0 of a design that concentrates nothing, below the measured value.
+  // 1.734 frictionless on the body of 2026-11-22 (1.576 with friction mu = 0.1, 1.349 before the crease
+  // pinch; the full run reaches 3.2x at 10 %, docs/RESULTS.md): a floor well above the 1.0 of a design
+  // that concentrates nothing, below the measured value.
   EXPECT_GT(last.density_ratio, 1.3);
 
   const Result<BaselineComparison> cmp = CompareWithBaselines(*scene, last.design, run->front().energy_density_Pa.cwiseProduct(area));

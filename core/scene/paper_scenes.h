@@ -36,15 +36,15 @@ Result<BodyRegion> ParametricGarmentRegion(const ParametricBody& body, const std
 // The parametric body for the default measurements, built once per process.
 Result<const ParametricBody*> DefaultParametricBody();
 
-// Garment-skin friction of the built-in scenes (Coulomb coefficient; see core/sim/friction.h). The paper's
-// contact is frictionless, and so frictionless that a sleeve whose reinforcement BESO has thinned slides
-// 4-7 cm around the bent elbow (docs/RESULTS.md). 0.1 is the smallest round value with which every
-// built-in design ran to its budget; cloth on skin measures 0.3-0.5, and more friction lowers the
-// density gains BESO finds. `"effects": {"friction": 0}` in a scene file restores the paper's contact.
-inline constexpr double kPaperSceneFriction = 0.1;
+// Garment-skin friction of the built-in scenes (Coulomb coefficient; see core/sim/friction.h): none, the
+// paper's contact. Until the body's bent joints kept their girth (docs/BODIES.md, crease pinch) a
+// frictionless sleeve whose reinforcement BESO had thinned slid 4-7 cm around the bent elbow, and the
+// built-in scenes used 0.1; on today's body all seven run to their budgets without it, with higher
+// density gains (docs/RESULTS.md). `"effects": {"friction": 0.1}` in a scene file turns friction on.
+inline constexpr double kPaperSceneFriction = 0.0;
 
 // The scene of one paper motion on `body`: the body posed through the motion's frames, the garment cut
-// from it (all cloth), unilateral contact with friction kPaperSceneFriction, and attachments.
+// from it (all cloth), unilateral contact (friction kPaperSceneFriction), and attachments.
 Result<SceneSpec> PaperScene(const ParametricBody& body, const PaperMotion& motion);
 
 }  // namespace kgd

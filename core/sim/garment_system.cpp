@@ -398,31 +398,45 @@ void GarmentSystem::FaceDensities(const Positions& x, Eigen::VectorXd* density, 
   }
 }
 
-Eigen::VectorXd GarmentSystem::VertexPhi(const Positions& x) {
+Eigen::VectorXd GarmentSystem::VertexPhi(const Positions& x, Positions* grad) {
   Eigen::VectorXd phi = Eigen::VectorXd::Constant(num_vertices(), std::numeric_limits<double>::quiet_NaN());
+  if (grad) grad->setZero(num_vertices(), 3);
   if (!model_.body) return phi;
   if (caches_.empty()) caches_.resize(num_vertices());
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < num_vertices(); ++v) {
-    const FieldSample s = model_.body->Evaluate(x.row(v).transpose(), &caches_[v], false, false);
+    const FieldSample s = model_.body->Evaluate(x.row(v).transpose(), &caches_[v], grad != nullptr, false);
     if (s.supported) phi[v] = s.phi_m;
+    if (s.supported && grad) grad->row(v) = s.grad.transpose();
   }
   return phi;
 }
 
-int GarmentSystem::ProjectCrossingsOntoBody(const Eigen::VectorXd& phi_from, Positions* trial) {
+int GarmentSystem::ProjectCrossingsOntoBody(const Eigen::VectorXd& phi_from, const Positions& grad_from, const Positions& x_from, Positions* trial) {
   if (model_.effects.contact != ContactModel::kUnilateral || !model_.body) return 0;
   if (caches_.empty()) caches_.resize(num_vertices());
-  const double target = -kProjectionDepth_m;
   int moved = 0;
 #pragma omp parallel for schedule(static) reduction(+ : moved)
   for (int v = 0; v < num_vertices(); ++v) {
-    if (!(phi_from[v] >= 0)) continue;  // in contact (the Hessian knows) or unsupported (NaN)
+    if (std::isnan(phi_from[v])) continue;
     if (free_index_[3 * v] < 0 || free_index_[3 * v + 1] < 0 || free_index_[3 * v + 2] < 0) continue;
+    double target = -kProjectionDepth_m, tol = 0.5 * kProjectionDepth_m;
+    bool both_ways = false;
+    if (phi_from[v] < 0) {
+      // In contact: the step is linear, the skin curved. Sliding along it leaves the vertex micrometres
+      // deeper (concave skin) or shallower (convex) than the model predicted, and the penalty then answers
+      // with a force no Hessian foresaw: the next step undoes it, and the next. Follow the skin instead.
+      const double lin = phi_from[v] + grad_from.row(v).dot(trial->row(v) - x_from.row(v));
+      if (lin < target) {
+        target = lin;
+        tol = 1e-3 * -lin + 0.5 * kProjectionDepth_m;
+        both_ways = true;
+      }
+    }
     Eigen::Vector3d y = trial->row(v).transpose();
     FieldSample s = model_.body->Evaluate(y, &caches_[v], true, false);
-    if (!s.supported || s.phi_m >= 2 * target) continue;
-    for (int k = 0; k < 4 && s.supported && std::abs(s.phi_m - target) > 0.5 * kProjectionDepth_m; ++k) {
+    if (!s.supported || std::abs(s.phi_m - target) <= tol || (s.phi_m > target && !both_ways)) continue;
+    for (int k = 0; k < 4 && s.supported && std::abs(s.phi_m - target) > tol; ++k) {
       const double g2 = s.grad.squaredNorm();
       if (!(g2 > 1e-12)) break;
       y -= ((s.phi_m - target) / g2) * s.grad;

@@ -128,18 +128,26 @@ class GarmentSystem {
   // the friction term (held until the next call). Before any call the friction term is zero.
   void LagFriction(const Positions& x);
 
-  // Phi at each vertex (m); NaN where the field has no support. Requires contact.
-  Eigen::VectorXd VertexPhi(const Positions& x);
+  // Phi at each vertex (m); NaN where the field has no support; with `grad`, the field's gradient there
+  // (a zero row where unsupported). Requires contact.
+  Eigen::VectorXd VertexPhi(const Positions& x, Positions* grad = nullptr);
 
-  // Unilateral contact only (otherwise returns 0 and leaves `trial` alone). A Newton step models a
-  // vertex that is off the body with no contact stiffness, so it may carry it deep into the body; the
-  // penalty's energy then cuts the whole step to a sliver (a wasted factorization). This moves every
-  // fully free vertex that was off the body at the step's start (phi_from >= 0, from VertexPhi) and is
-  // inside it at `trial` back to just inside the surface (Phi = -kProjectionDepth, a few Newton
-  // iterations on Phi), where the next Hessian sees its contact stiffness. Vertices already in contact
-  // are modelled by the Hessian and left alone. Returns the number of vertices moved.
+  // Unilateral contact only (otherwise returns 0 and leaves `trial` alone). Corrects a line-search trial
+  // `trial` of a step from `x_from` (phi_from and grad_from from VertexPhi there) where the Newton
+  // model's linear view of the skin fails, moving fully free vertices along the field gradient (a few
+  // Newton iterations on Phi):
+  //  - a vertex off the body at the start (phi_from >= 0) has no contact stiffness in the Hessian, so the
+  //    step may carry it deep into the body and the penalty then cuts the whole step to a sliver (a wasted
+  //    factorization): if it ends inside, it goes back to just inside the surface
+  //    (Phi = -kProjectionDepth), where the next Hessian sees its contact stiffness;
+  //  - a vertex in contact (phi_from < 0) that slides along the curved skin ends micrometres deeper
+  //    (concave skin) or shallower (convex) than the linear model's phi_from + grad_from . step: it goes
+  //    to that depth, from either side (if the model predicts lift-off, it is treated as a crossing).
+  //    Without this, cloth sliding on a limb spends most Newton iterations of a BESO re-solve undoing
+  //    micrometre penetrations and lift-offs (docs/PERFORMANCE.md, sixteenth session).
+  // Neither changes an equilibrium, only the path to it. Returns the number of vertices moved.
   static constexpr double kProjectionDepth_m = 1e-10;
-  int ProjectCrossingsOntoBody(const Eigen::VectorXd& phi_from, Positions* trial);
+  int ProjectCrossingsOntoBody(const Eigen::VectorXd& phi_from, const Positions& grad_from, const Positions& x_from, Positions* trial);
 
   // Force the clamp exerts on the garment at x (N): the sum of dE/dx over its vertices.
   Eigen::Vector3d ClampReaction(int clamp, const Eigen::VectorXd& gradient) const;

@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <array>
+#include <memory>
 #include <random>
 
 #include "core/scene/scene.h"
@@ -177,25 +178,36 @@ TEST(GarmentSystem, FrictionGradientMatchesFiniteDifferencesAndNeedsContactForce
   EXPECT_NE(refused.message().find("effects.friction needs contact"), std::string::npos) << refused.message();
 }
 
+// The small sleeve with unilateral contact and its first two vertices clamped (*s), and its garment
+// system, or null (with a test failure) if the model does not build.
+std::unique_ptr<GarmentSystem> PinnedUnilateralSleeve(SceneSpec* s) {
+  *s = SmallSleeve(ContactModel::kUnilateral);
+  PinFirstTwoVertices(s, {true, true, true});
+  auto model = BuildGarmentModel(*s);
+  EXPECT_TRUE(model.ok()) << model.message();
+  if (!model.ok()) return nullptr;
+  return std::make_unique<GarmentSystem>(std::move(model).value(), s->initial);
+}
+
 // The line search's projection: a vertex that a trial step carries from off the body into it goes back
-// to just inside the surface; vertices already in contact, clamped vertices, and the other contact models
-// are left alone.
+// to just inside the surface; vertices in contact that the step leaves at the depth the linear model
+// predicts, clamped vertices, and the other contact models are left alone.
 TEST(GarmentSystem, ProjectCrossingsOntoBodyMovesOnlyTheVerticesThatCrossed) {
-  SceneSpec s = SmallSleeve(ContactModel::kUnilateral);
-  PinFirstTwoVertices(&s, {true, true, true});
-  auto model = BuildGarmentModel(s);
-  ASSERT_TRUE(model.ok()) << model.message();
-  GarmentSystem sys(std::move(model).value(), s.initial);
+  SceneSpec s;
+  std::unique_ptr<GarmentSystem> system = PinnedUnilateralSleeve(&s);
+  ASSERT_TRUE(system);
+  GarmentSystem& sys = *system;
   const Positions out = OutwardNormals(sys, s);
   // This sleeve starts 1-3 mm inside the limb. A step from 4 mm further out (every third vertex from
   // where it is, inside) to there.
   Positions from = s.initial + 4e-3 * out;
   for (Eigen::Index v = 0; v < from.rows(); v += 3) from.row(v) = s.initial.row(v);
   const Positions step_end = s.initial;
-  const Eigen::VectorXd phi_from = sys.VertexPhi(from);
+  Positions grad_from;
+  const Eigen::VectorXd phi_from = sys.VertexPhi(from, &grad_from);
   const Eigen::VectorXd phi_end = sys.VertexPhi(step_end);
   Positions trial = step_end;
-  const int moved = sys.ProjectCrossingsOntoBody(phi_from, &trial);
+  const int moved = sys.ProjectCrossingsOntoBody(phi_from, grad_from, from, &trial);
   const Eigen::VectorXd phi = sys.VertexPhi(trial);
   int expected = 0;
   for (Eigen::Index v = 0; v < trial.rows(); ++v) {
@@ -220,8 +232,53 @@ TEST(GarmentSystem, ProjectCrossingsOntoBodyMovesOnlyTheVerticesThatCrossed) {
   ASSERT_TRUE(bmodel.ok());
   GarmentSystem bsys(std::move(bmodel).value(), b.initial);
   Positions btrial = step_end;
-  EXPECT_EQ(bsys.ProjectCrossingsOntoBody(phi_from, &btrial), 0);
+  EXPECT_EQ(bsys.ProjectCrossingsOntoBody(phi_from, grad_from, from, &btrial), 0);
   EXPECT_EQ(btrial, step_end);
+}
+
+// A vertex in contact that a step slides along the curved limb (here: 3 mm in the tangent plane, so the
+// linear model predicts no change of depth) ends shallower or deeper; the projection puts it back at its
+// depth, moving it along the normal by just the difference.
+TEST(GarmentSystem, ProjectCrossingsOntoBodyKeepsSlidingContactAtThePredictedDepth) {
+  SceneSpec s;
+  std::unique_ptr<GarmentSystem> system = PinnedUnilateralSleeve(&s);
+  ASSERT_TRUE(system);
+  GarmentSystem& sys = *system;
+  const Positions& from = s.initial;  // 1-3 mm inside the limb: every vertex in contact
+  Positions grad_from;
+  const Eigen::VectorXd phi_from = sys.VertexPhi(from, &grad_from);
+  Positions step_end = from;
+  for (Eigen::Index v = 0; v < from.rows(); ++v) {
+    const Eigen::Vector3d n = grad_from.row(v).transpose().normalized();
+    step_end.row(v) += 3e-3 * n.unitOrthogonal().transpose();
+  }
+  const Eigen::VectorXd phi_end = sys.VertexPhi(step_end);
+  Positions trial = step_end;
+  const int moved = sys.ProjectCrossingsOntoBody(phi_from, grad_from, from, &trial);
+  const Eigen::VectorXd phi = sys.VertexPhi(trial);
+  int off_prediction = 0, shallower = 0, deeper = 0;
+  for (Eigen::Index v = 0; v < trial.rows(); ++v) {
+    ASSERT_LT(phi_from[v], 0.0) << "vertex " << v;
+    const double miss = phi_end[v] - phi_from[v];  // the linear model predicts phi_from
+    if (v <= 1) {
+      EXPECT_EQ(trial.row(v), step_end.row(v)) << "clamped vertex " << v;
+      continue;
+    }
+    const double tol = 1e-3 * -phi_from[v] + 0.5 * GarmentSystem::kProjectionDepth_m;
+    EXPECT_NEAR(phi[v], phi_from[v], tol) << "vertex " << v;
+    if (std::abs(miss) <= tol) {
+      EXPECT_EQ(trial.row(v), step_end.row(v)) << "vertex " << v;
+      continue;
+    }
+    ++off_prediction;
+    ++(miss > 0 ? shallower : deeper);
+    EXPECT_NEAR((trial.row(v) - step_end.row(v)).norm(), std::abs(miss), 0.2 * std::abs(miss)) << "vertex " << v;
+  }
+  EXPECT_EQ(moved, off_prediction);
+  EXPECT_GT(off_prediction, trial.rows() / 2) << "the test must exercise sliding off the predicted depth";
+  // The limb is convex round its axis, concave on the inside of its bend: both sides are exercised.
+  EXPECT_GT(shallower, 0);
+  EXPECT_GT(deeper, 0);
 }
 
 TEST(GarmentSystem, WithoutContactNoBodyFieldIsBuilt) {

@@ -227,6 +227,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   const bool project_crossings =
       settings.project_contact_crossings && sys.model().effects.contact == ContactModel::kUnilateral;
   Eigen::VectorXd phi_from;  // Phi at *x, taken at the first line search from it
+  Positions grad_from;
   Positions trial;
   Eigen::VectorXd g_trial_full;
   // Cut steps that no longer lower the energy beyond round-off, in a row. On a C0 energy (the authors'
@@ -356,10 +357,10 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       AddFree(p, 1.0, free_index, *x, &trial);
       trial -= *x;
       alpha = sys.MaxFoldSafeStep(*x, trial);
-      if (project_crossings && phi_from.size() == 0) phi_from = sys.VertexPhi(*x);
+      if (project_crossings && phi_from.size() == 0) phi_from = sys.VertexPhi(*x, &grad_from);
       for (int ls = 0; ls < 40; ++ls, alpha *= 0.5) {
         AddFree(p, alpha, free_index, *x, &trial);
-        if (project_crossings) sys.ProjectCrossingsOntoBody(phi_from, &trial);
+        if (project_crossings) sys.ProjectCrossingsOntoBody(phi_from, grad_from, *x, &trial);
         E_new = sys.Evaluate(trial, nullptr, nullptr);
         ++rep.energy_evaluations;
         if (E_new <= E + 1e-4 * alpha * slope) { accepted = true; break; }

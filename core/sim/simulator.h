@@ -69,12 +69,13 @@ struct SolverSettings {
   // relaxation) reuse re-solves without any factorization.
   bool reuse_factorization = false;
   int max_pcg_iterations = 25;
-  // Newton with unilateral contact: the line search moves vertices that its trial step carries from off
-  // the body into it back to the surface (GarmentSystem::ProjectCrossingsOntoBody). The Hessian has no
-  // contact stiffness for a vertex off the body, so without this a step that presses such vertices in
-  // is cut to a sliver by the penalty, and the next iteration repeats the factorization; with it a BESO
-  // re-solve of arm flexion takes about 4-5 Newton iterations instead of 6-7 (docs/PERFORMANCE.md).
-  // The equilibrium is unchanged: only trial points differ.
+  // Newton with unilateral contact: the line search corrects its trial points where the linear model of
+  // the skin fails (GarmentSystem::ProjectCrossingsOntoBody). A vertex the step carries from off the body
+  // into it goes back to the surface (the Hessian has no contact stiffness off the body, so the penalty
+  // would cut the step to a sliver); a vertex in contact that slides along the curved skin goes to the
+  // depth the linear model predicted (else the next steps undo micrometre penetrations and lift-offs).
+  // BESO re-solves of arm flexion take 1.5-3 Newton iterations with it, 6-12 without
+  // (docs/PERFORMANCE.md). The equilibrium is unchanged: only trial points differ.
   bool project_contact_crossings = true;
   // Newton: when 99 % of the squared residual sits on coordinates within two rings of the few whose
   // residual is at least 1 % of the largest, and those rings hold at most a third of the unknowns, the
