@@ -229,13 +229,13 @@ std::vector<Prim> Prims(const ParametricBody& body) {
   return out;
 }
 
-// Blend radius inside a chain grows with the joint's bend away from rest: a fillet where the inner
-// sides of a bent elbow or knee meet, nothing (a plain union) for a straight chain.
 // Bend of a joint (rad): the rotation between the two bones' frames, 0 for a straight chain.
 double Bend(const Eigen::Isometry3d& parent, const Eigen::Isometry3d& child) {
   return Eigen::AngleAxisd(parent.linear().transpose() * child.linear()).angle();
 }
 
+// Blend radius inside a chain grows with the joint's bend away from rest: a fillet where the inner
+// sides of a bent elbow or knee meet, nothing (a plain union) for a straight chain.
 double ChainBlend(const Eigen::Isometry3d& parent, const Eigen::Isometry3d& child) {
   return 0.04 * (1.0 - std::cos(Bend(parent, child)));
 }
