@@ -141,6 +141,33 @@ void BM_LbfgsCold(benchmark::State& state) {
 }
 BENCHMARK(BM_LbfgsCold)->Arg(4)->Arg(5)->Arg(6)->ArgName("tol_exp")->Unit(benchmark::kMillisecond)->Iterations(1);
 
+// One evaluation of the sleeve's energy at its equilibrium, the unit every Newton step and line-search
+// trial pays: what 0 energy only, 1 with gradient, 2 with gradient and Hessian, 3 the body field's
+// value alone at every garment vertex (GarmentSystem::VertexPhi).
+void BM_Evaluate(benchmark::State& state) {
+  const SceneSpec s = Sleeve(true);
+  auto model = BuildGarmentModel(s);
+  GarmentSystem sys(std::move(model).value(), s.initial);
+  Positions x = s.initial;
+  {
+    Simulator sim(&sys);
+    const SolveReport r = sim.Solve(&x, SolverSettings{});
+    if (!r.converged()) state.SkipWithError(r.message.c_str());
+  }
+  Eigen::SparseMatrix<double> H = sys.hessian_pattern();
+  Eigen::VectorXd g;
+  const int what = static_cast<int>(state.range(0));
+  for (auto _ : state) {
+    if (what == 3) {
+      benchmark::DoNotOptimize(sys.VertexPhi(x, nullptr));
+    } else {
+      benchmark::DoNotOptimize(sys.Evaluate(x, what >= 1 ? &g : nullptr, what == 2 ? &H : nullptr));
+    }
+  }
+  state.counters["vertices"] = sys.num_vertices();
+}
+BENCHMARK(BM_Evaluate)->DenseRange(0, 3)->ArgName("what")->Unit(benchmark::kMillisecond);
+
 }  // namespace
 }  // namespace kgd
 

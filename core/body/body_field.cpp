@@ -48,7 +48,11 @@ Result<std::shared_ptr<const BodyField>> BodyField::Build(const Positions& body_
     if (h > 0) { sum_h += h; ++used; }
   }
   field->mean_h_ = used ? sum_h / used : 0;
-  field->margin_ = settings.cache_margin_m > 0 ? settings.cache_margin_m : 0.5 * field->mean_h_;
+  // The margin trades the candidates' count (every evaluation tests each one) against how often a list
+  // is rebuilt (a k-d tree query). A BESO re-solve moves the cloth millimetres, well inside a quarter of
+  // the support radius; at half of it two thirds of the candidates failed the support test, and
+  // evaluating the field took a quarter longer (docs/PERFORMANCE.md).
+  field->margin_ = settings.cache_margin_m > 0 ? settings.cache_margin_m : 0.25 * field->mean_h_;
   field->index_ = std::make_unique<Index>();
   field->index_->cloud.points = &field->vertices_;
   field->index_->tree = std::make_unique<Index::Tree>(3, field->index_->cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));

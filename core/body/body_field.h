@@ -21,7 +21,7 @@ namespace kgd {
 
 struct BodyFieldSettings {
   double support_scale = 2.0;  // h_k = support_scale * one-ring mean edge length (paper: twice)
-  double cache_margin_m = 0;   // 0: half the mean support radius
+  double cache_margin_m = 0;   // 0: a quarter of the mean support radius
 };
 
 // Candidate body vertices for one query point; owned by the caller (one per garment vertex).
