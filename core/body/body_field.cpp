@@ -51,7 +51,7 @@ Result<std::shared_ptr<const BodyField>> BodyField::Build(const Positions& body_
   // The margin trades the candidates' count (every evaluation tests each one) against how often a list
   // is rebuilt (a k-d tree query). A BESO re-solve moves the cloth millimetres, well inside a quarter of
   // the support radius; at half of it two thirds of the candidates failed the support test, and
-  // evaluating the field took a quarter longer (docs/PERFORMANCE.md).
+  // evaluating the field took a fifth longer (docs/PERFORMANCE.md).
   field->margin_ = settings.cache_margin_m > 0 ? settings.cache_margin_m : 0.25 * field->mean_h_;
   field->index_ = std::make_unique<Index>();
   field->index_->cloud.points = &field->vertices_;
@@ -89,7 +89,7 @@ FieldSample BodyField::Evaluate(const Eigen::Vector3d& x, NeighborCache* cache, 
   for (int k : cache->candidates) {
     const Eigen::Vector3d d = x - vertices_.row(k).transpose();
     // Multiplying by the stored 1/h^2 rather than dividing: this loop is the contact's hot spot, and
-    // two thirds of the candidates fail the support test.
+    // many candidates fail the support test (the cache margin keeps some spare).
     const double inv_h2 = inv_h2_[k];
     const double q = d.squaredNorm() * inv_h2;
     if (q >= 1.0) continue;
