@@ -9,6 +9,7 @@
 
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
+#include "core/sim/sparse_cholesky.h"
 
 namespace kgd {
 namespace {
@@ -167,6 +168,38 @@ void BM_Evaluate(benchmark::State& state) {
   state.counters["vertices"] = sys.num_vertices();
 }
 BENCHMARK(BM_Evaluate)->DenseRange(0, 3)->ArgName("what")->Unit(benchmark::kMillisecond);
+
+// One factorization of the sleeve's Hessian at its equilibrium (the damping of a warm re-solve's first
+// step, 0.2 N/m) and one solve with it: split 0 the whole factorization, 1 two domains on two threads
+// (core/sim/sparse_cholesky.h; on one thread with OMP_NUM_THREADS=1).
+void BM_Factorize(benchmark::State& state) {
+  const SceneSpec s = Sleeve(true);
+  auto model = BuildGarmentModel(s);
+  GarmentSystem sys(std::move(model).value(), s.initial);
+  Positions x = s.initial;
+  {
+    Simulator sim(&sys);
+    const SolveReport r = sim.Solve(&x, SolverSettings{});
+    if (!r.converged()) state.SkipWithError(r.message.c_str());
+  }
+  Eigen::SparseMatrix<double> H = sys.hessian_pattern();
+  Eigen::VectorXd g;
+  sys.Evaluate(x, &g, &H);
+  const Eigen::VectorXd b = Eigen::VectorXd::Ones(H.rows());
+  SparseCholesky cholesky;
+  cholesky.Analyze(H, state.range(0) == 1);
+  double solve_s = 0;
+  for (auto _ : state) {
+    if (!cholesky.Factorize(H, 0.2)) state.SkipWithError("not positive definite");
+    const auto t = std::chrono::steady_clock::now();
+    benchmark::DoNotOptimize(cholesky.Solve(b));
+    solve_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  }
+  state.counters["separator"] = static_cast<double>(cholesky.separator().size());
+  state.counters["factor_nnz"] = cholesky.factor_nonzeros();
+  state.counters["solve_ms"] = 1e3 * solve_s / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_Factorize)->Arg(0)->Arg(1)->ArgName("split")->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace kgd

@@ -1,16 +1,12 @@
 // Projected Newton for Simulator (see simulator.h).
-#include <dlfcn.h>
-#include <omp.h>
-
-#include <Eigen/CholmodSupport>
 #include <Eigen/SparseCholesky>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <mutex>
 
 #include "core/sim/simulator.h"
+#include "core/sim/sparse_cholesky.h"
 
 namespace kgd {
 namespace {
@@ -83,39 +79,6 @@ bool LocalStep(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& g, d
   return true;
 }
 
-// Our factors have thousands of small supernodes (fronts of tens to a few hundred rows). On them
-// threading costs more than it gives: OpenBLAS's idle threads spin in sched_yield, and CHOLMOD 3.0
-// (SuiteSparse 5.12) opens an OpenMP team of a compiled-in 4 threads for every supernode it zeroes,
-// whatever OMP_NUM_THREADS says. On 2 cores the two fight: on the 7k-vertex sleeve a factorization
-// took 120 ms, half of it in the kernel; serial it takes ~55 ms (docs/PERFORMANCE.md). Serial BLAS
-// also makes results independent of the machine's core count.
-void UseSerialBlas() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    // Looked up, not linked: the BLAS behind libblas.so.3 may be another implementation.
-    using SetThreads = void (*)(int);
-    if (auto set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(1);
-  });
-}
-
-// Makes CHOLMOD's OpenMP regions run on the calling thread while alive. The ICV is process-wide in
-// libgomp, so it is restored to the value seen at first use rather than to what this scope found
-// (concurrent solves in one worker could otherwise leave it at 0 for good).
-class SerialOpenMpScope {
- public:
-  SerialOpenMpScope() {
-    static const int initial = omp_get_max_active_levels();
-    restore_ = initial;
-    omp_set_max_active_levels(0);
-  }
-  ~SerialOpenMpScope() { omp_set_max_active_levels(restore_); }
-  SerialOpenMpScope(const SerialOpenMpScope&) = delete;
-  SerialOpenMpScope& operator=(const SerialOpenMpScope&) = delete;
-
- private:
-  int restore_ = 1;
-};
-
 }  // namespace
 
 const char* ToString(SolveStatus s) {
@@ -131,10 +94,7 @@ const char* ToString(SolveStatus s) {
 }
 
 struct Simulator::Newton {
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Upper> llt;
-  // Entries of the factor under the ordering the symbolic analysis chose; 0 until that analysis, which
-  // runs once per Simulator (a factor of n > 0 unknowns has at least n entries).
-  double factor_nonzeros = 0;
+  SparseCholesky cholesky;  // analyzed at the first factorization, once per Simulator
   bool have_factor = false;
   double mu = 0;  // largest damping with which the last solve took a full step: a warm re-solve starts there
   // PCG on an old factorization pays only while the Hessian changes little between steps; on scenes
@@ -146,21 +106,6 @@ struct Simulator::Newton {
 };
 
 Simulator::Simulator(GarmentSystem* system) : system_(system), newton_(std::make_unique<Newton>()) {
-  cholmod_common& c = newton_->llt.cholmod();
-  c.print = 0;  // failures are reported through SolveReport, not stderr
-  // The analysis runs once per mesh and the factorization hundreds of times, so both fill-reducing
-  // orderings are tried and the sparser factor kept. CHOLMOD's default tries METIS only when AMD's
-  // factor looks dense (>= 500 flops per factor entry and >= 5 times the matrix's entries); our
-  // garments stay far below the first, yet METIS's nested dissection cuts the factorization's flops by
-  // 38 % on the built-in arm flexion sleeve (7k vertices) and by 46 % on the slouch's shirt (17k),
-  // while AMD stays better on the flat pull-test sample (docs/PERFORMANCE.md).
-  // The entries are copied from CHOLMOD's default suite (1: AMD, 2: METIS) to keep their parameters.
-  c.method[0] = c.method[1];
-  c.method[1] = c.method[2];
-  c.method[0].ordering = CHOLMOD_AMD;
-  c.method[1].ordering = CHOLMOD_METIS;
-  c.nmethods = 2;
-  UseSerialBlas();
   newton_->H = system_->hessian_pattern();
 }
 
@@ -188,7 +133,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   const int max_it = settings.max_iterations > 0 ? settings.max_iterations : 200;
   SolveReport rep;
   rep.energy_c0 = sys.model().effects.relaxation == Relaxation::kAuthors;
-  rep.factor_nonzeros = nt.factor_nonzeros;
+  rep.factor_nonzeros = nt.cholesky.factor_nonzeros();
   rep.tolerance_N = settings.grad_tol * sys.force_scale_N() * std::sqrt(std::max(1.0, n / 3.0));
 
   sys.ApplyClampsSmoothly(x);
@@ -274,7 +219,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       if (settings.reuse_factorization && pcg_allowed && nt.have_factor && !fresh_factor && attempt == 0 && !skip_pcg) {
         t = Clock::now();
         const double eta = std::min(0.1, std::sqrt(rep.grad_norm_N / std::max(g0, 1e-300)));
-        Eigen::VectorXd rvec = -g, z = nt.llt.solve(rvec), d = z, Ad;
+        Eigen::VectorXd rvec = -g, z = nt.cholesky.Solve(rvec), d = z, Ad;
         p = Eigen::VectorXd::Zero(n);
         double rz = rvec.dot(z);
         const double target = eta * rep.grad_norm_N;
@@ -287,7 +232,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
           p += a * d;
           rvec -= a * Ad;
           if (rvec.norm() <= target) { have_step = true; ++k; break; }
-          z = nt.llt.solve(rvec);
+          z = nt.cholesky.Solve(rvec);
           const double rz_new = rvec.dot(z);
           d = z + (rz_new / rz) * d;
           rz = rz_new;
@@ -312,19 +257,14 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       // 3) Fresh factorization of H + delta I (raising delta until CHOLMOD succeeds).
       if (!have_step) {
         t = Clock::now();
-        if (nt.factor_nonzeros == 0) {
-          nt.llt.analyzePattern(nt.H);
-          nt.factor_nonzeros = rep.factor_nonzeros = nt.llt.cholmod().lnz;
+        if (!nt.cholesky.analyzed()) {
+          nt.cholesky.Analyze(nt.H);
+          rep.factor_nonzeros = nt.cholesky.factor_nonzeros();
         }
         bool ok = false;
         for (int tries = 0; tries < 12; ++tries) {
-          nt.llt.setShift(delta);
-          {
-            SerialOpenMpScope serial;
-            nt.llt.factorize(nt.H);
-          }
           ++rep.factorizations;
-          if (nt.llt.info() == Eigen::Success) { ok = true; break; }
+          if (nt.cholesky.Factorize(nt.H, delta)) { ok = true; break; }
           delta *= 10.0;
         }
         rep.factorization_s += Seconds(t, Clock::now());
@@ -337,7 +277,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
         nt.have_factor = true;
         fresh_factor = true;
         t = Clock::now();
-        p = nt.llt.solve(-g);
+        p = nt.cholesky.Solve(-g);
         rep.solve_s += Seconds(t, Clock::now());
       }
       const double slope = g.dot(p);
