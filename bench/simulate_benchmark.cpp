@@ -142,19 +142,22 @@ void BM_LbfgsCold(benchmark::State& state) {
 }
 BENCHMARK(BM_LbfgsCold)->Arg(4)->Arg(5)->Arg(6)->ArgName("tol_exp")->Unit(benchmark::kMillisecond)->Iterations(1);
 
+// The reinforced sleeve's equilibrium from `start`, solved with the default settings.
+Positions SolvedSleeve(GarmentSystem& sys, const Positions& start, benchmark::State& state) {
+  Positions x = start;
+  Simulator sim(&sys);
+  const SolveReport r = sim.Solve(&x, SolverSettings{});
+  if (!r.converged()) state.SkipWithError(r.message.c_str());
+  return x;
+}
+
 // One evaluation of the sleeve's energy at its equilibrium, the unit every Newton step and line-search
 // trial pays: what 0 energy only, 1 with gradient, 2 with gradient and Hessian, 3 the body field's
 // value alone at every garment vertex (GarmentSystem::VertexPhi).
 void BM_Evaluate(benchmark::State& state) {
   const SceneSpec s = Sleeve(true);
-  auto model = BuildGarmentModel(s);
-  GarmentSystem sys(std::move(model).value(), s.initial);
-  Positions x = s.initial;
-  {
-    Simulator sim(&sys);
-    const SolveReport r = sim.Solve(&x, SolverSettings{});
-    if (!r.converged()) state.SkipWithError(r.message.c_str());
-  }
+  GarmentSystem sys(BuildGarmentModel(s).value(), s.initial);
+  const Positions x = SolvedSleeve(sys, s.initial, state);
   Eigen::SparseMatrix<double> H = sys.hessian_pattern();
   Eigen::VectorXd g;
   const int what = static_cast<int>(state.range(0));
@@ -174,14 +177,8 @@ BENCHMARK(BM_Evaluate)->DenseRange(0, 3)->ArgName("what")->Unit(benchmark::kMill
 // (core/sim/sparse_cholesky.h; on one thread with OMP_NUM_THREADS=1).
 void BM_Factorize(benchmark::State& state) {
   const SceneSpec s = Sleeve(true);
-  auto model = BuildGarmentModel(s);
-  GarmentSystem sys(std::move(model).value(), s.initial);
-  Positions x = s.initial;
-  {
-    Simulator sim(&sys);
-    const SolveReport r = sim.Solve(&x, SolverSettings{});
-    if (!r.converged()) state.SkipWithError(r.message.c_str());
-  }
+  GarmentSystem sys(BuildGarmentModel(s).value(), s.initial);
+  const Positions x = SolvedSleeve(sys, s.initial, state);
   Eigen::SparseMatrix<double> H = sys.hessian_pattern();
   Eigen::VectorXd g;
   sys.Evaluate(x, &g, &H);

@@ -48,6 +48,9 @@ void UseSerialBlas() {
 // 1 lets our two-domain region run on two threads while CHOLMOD's regions inside it stay serial. The
 // ICV is process-wide in libgomp, so it is restored to the value seen at first use rather than to what
 // this scope found (concurrent solves in one worker could otherwise leave it lowered for good).
+// Threads for the two domains: two unless OpenMP is limited to one.
+int DomainThreads() { return std::min(2, omp_get_max_threads()); }
+
 class ActiveLevelsScope {
  public:
   explicit ActiveLevelsScope(int levels) {
@@ -63,8 +66,9 @@ class ActiveLevelsScope {
   int restore_ = 1;
 };
 
-// A CHOLMOD view of a matrix holding the upper triangle of a symmetric one.
-cholmod_sparse ViewUpper(SpMat& m) {
+// A CHOLMOD view of a matrix holding the upper triangle of a symmetric one (CHOLMOD's analysis and
+// factorization only read it).
+cholmod_sparse ViewUpper(const SpMat& m) {
   cholmod_sparse v = Eigen::viewAsCholmod(m);
   v.stype = 1;
   return v;
@@ -184,8 +188,7 @@ struct SparseCholesky::Impl {
 // Finds two domains and a separator whose factorizations' critical path is clearly shorter than the
 // whole factorization, and analyzes them. False (no split) when none is.
 bool SparseCholesky::Impl::SplitFrom(const SpMat& upper) {
-  SpMat pattern = upper;
-  cholmod_sparse view = ViewUpper(pattern);
+  cholmod_sparse view = ViewUpper(upper);
   std::vector<int> part(n, 0);  // 0, 1: domains; 2: separator
   {
     Domain scratch;  // for its CHOLMOD workspace
@@ -327,7 +330,7 @@ bool SparseCholesky::Factorize(const SpMat& upper, double shift) {
   }
   bool ok[2] = {false, false};
   {
-    const int threads = std::min(2, omp_get_max_threads());
+    const int threads = DomainThreads();
     ActiveLevelsScope levels(threads > 1 ? 1 : 0);
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
     for (int k = 0; k < 2; ++k) ok[k] = m.FactorDomain(*m.domain[k], upper, shift);
@@ -363,7 +366,7 @@ Eigen::VectorXd SparseCholesky::Solve(const Eigen::VectorXd& b) const {
     *v = Eigen::Map<const Eigen::VectorXd>(static_cast<const double*>(y->x), v->size());
     cholmod_free_dense(&y, &d.common);
   };
-  const int threads = std::min(2, omp_get_max_threads());
+  const int threads = DomainThreads();
   ActiveLevelsScope levels(threads > 1 ? 1 : 0);
   // Forward: z = L^-1 [b_D; 0]. Its separator part gives H_Sk H_kk^-1 b_k = -L_SS z_S.
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
