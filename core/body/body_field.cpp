@@ -83,9 +83,15 @@ void BodyField::RefreshCache(const Eigen::Vector3d& x, NeighborCache* cache) con
 FieldSample BodyField::Evaluate(const Eigen::Vector3d& x, NeighborCache* cache, bool want_grad, bool want_hess) const {
   // The cache is valid while x stays within the margin of where it was built (NaN center: never built).
   if (!((x - cache->center).squaredNorm() <= margin_ * margin_)) RefreshCache(x, cache);
-  double D = 0, N = 0;
+  // Sums over the support of the kernel phi = (1 - q)^4, q = |d|^2 / h^2, d = x - x_k, and of its
+  // derivatives dphi = -s d and hphi = c d d^T - s I with s = 8 (1-q)^3 / h^2, c = 48 (1-q)^2 / h^4:
+  //   D = sum phi, N = sum phi g (g = n_k . d),
+  //   dD = -sum s d, dN = sum (phi n_k - s g d),
+  //   hD = sum c d d^T - (sum s) I,  hN = sum c g d d^T - (sum s g) I - (Q + Q^T), Q = sum s d n_k^T.
+  // Summing the rank-one parts and adding the identity terms once halves the Hessian's arithmetic.
+  double D = 0, N = 0, S = 0, SG = 0;
   Eigen::Vector3d dD = Eigen::Vector3d::Zero(), dN = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d hD = Eigen::Matrix3d::Zero(), hN = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero(), B = Eigen::Matrix3d::Zero(), Q = Eigen::Matrix3d::Zero();
   for (int k : cache->candidates) {
     const Eigen::Vector3d d = x - vertices_.row(k).transpose();
     // Multiplying by the stored 1/h^2 rather than dividing: this loop is the contact's hot spot, and
@@ -100,14 +106,17 @@ FieldSample BodyField::Evaluate(const Eigen::Vector3d& x, NeighborCache* cache, 
     D += phi;
     N += phi * g;
     if (!want_grad && !want_hess) continue;
-    const Eigen::Vector3d dphi = (-8.0 * t3 * inv_h2) * d;
-    dD += dphi;
-    dN += dphi * g + phi * n;
+    const double s_k = 8.0 * t3 * inv_h2;
+    const Eigen::Vector3d sd = s_k * d;
+    dD -= sd;
+    dN += phi * n - g * sd;
     if (want_hess) {
-      const Eigen::Matrix3d hphi =
-          (48.0 * t2 * inv_h2 * inv_h2) * d * d.transpose() - (8.0 * t3 * inv_h2) * Eigen::Matrix3d::Identity();
-      hD += hphi;
-      hN += hphi * g + dphi * n.transpose() + n * dphi.transpose();
+      const Eigen::Vector3d cd = (48.0 * t2 * inv_h2 * inv_h2) * d;
+      S += s_k;
+      SG += s_k * g;
+      A.noalias() += cd * d.transpose();
+      B.noalias() += (g * cd) * d.transpose();
+      Q.noalias() += sd * n.transpose();
     }
   }
   FieldSample s;
@@ -116,8 +125,11 @@ FieldSample BodyField::Evaluate(const Eigen::Vector3d& x, NeighborCache* cache, 
   s.supported = true;
   s.phi_m = N / D;
   if (want_grad || want_hess) s.grad = (dN - s.phi_m * dD) / D;
-  if (want_hess)
+  if (want_hess) {
+    const Eigen::Matrix3d hD = A - S * Eigen::Matrix3d::Identity();
+    const Eigen::Matrix3d hN = B - SG * Eigen::Matrix3d::Identity() - Q - Q.transpose();
     s.hess = (hN - s.grad * dD.transpose() - dD * s.grad.transpose() - s.phi_m * hD) / D;
+  }
   return s;
 }
 

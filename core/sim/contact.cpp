@@ -15,6 +15,7 @@ ContactEvaluation EvaluateContactVertex(const BodyField& field, const Eigen::Vec
   out.supported = s.supported;
   out.phi_m = s.phi_m;
   if (!s.supported) return out;
+  if (grad || hess) out.phi_grad = s.grad;
   if (model == ContactModel::kUnilateral && s.phi_m >= 0) return out;
   out.energy_J = k * s.phi_m * s.phi_m;
   if (grad) *grad = 2.0 * k * s.phi_m * s.grad;

@@ -18,6 +18,7 @@ inline constexpr double kDefaultContactStiffness = 5000.0;  // N/m
 struct ContactEvaluation {
   double energy_J = 0;
   double phi_m = 0;
+  Eigen::Vector3d phi_grad = Eigen::Vector3d::Zero();  // grad Phi where supported, when a gradient was asked for
   bool supported = false;
 };
 

@@ -174,23 +174,29 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
   };
   // Both (row, col) and (col, row) of a local matrix map to the same upper entry; only one of each
   // mirrored pair (and the diagonal) is kept so that every coupling is added exactly once.
-  face_map_.assign(static_cast<size_t>(nf) * 81, -1);
-  for (int f = 0; f < nf; ++f)
+  face_scatter_.clear();
+  face_scatter_begin_.assign(nf + 1, 0);
+  for (int f = 0; f < nf; ++f) {
     for (int r = 0; r < 9; ++r)
       for (int c = 0; c < 9; ++c) {
         const int dr = 3 * model_.faces(f, r / 3) + r % 3, dc = 3 * model_.faces(f, c / 3) + c % 3;
         const int p = free_index_[dr], q = free_index_[dc];
         if (p < 0 || q < 0 || p > q) continue;
-        face_map_[static_cast<size_t>(f) * 81 + 9 * r + c] = value_index(dr, dc);
+        face_scatter_.push_back({9 * c + r, value_index(dr, dc)});  // column-major local index
       }
-  vertex_map_.assign(static_cast<size_t>(nv) * 9, -1);
-  for (int v = 0; v < nv; ++v)
+    face_scatter_begin_[f + 1] = static_cast<int>(face_scatter_.size());
+  }
+  vertex_scatter_.clear();
+  vertex_scatter_begin_.assign(nv + 1, 0);
+  for (int v = 0; v < nv; ++v) {
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) {
         const int p = free_index_[3 * v + i], q = free_index_[3 * v + j];
         if (p < 0 || q < 0 || p > q) continue;
-        vertex_map_[9 * v + 3 * i + j] = value_index(3 * v + i, 3 * v + j);
+        vertex_scatter_.push_back({3 * j + i, value_index(3 * v + i, 3 * v + j)});
       }
+    vertex_scatter_begin_[v + 1] = static_cast<int>(vertex_scatter_.size());
+  }
 
   if (model_.effects.contact != ContactModel::kNone) caches_.resize(nv);
   face_energy_.assign(nf, 0.0);
@@ -334,17 +340,19 @@ double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Ei
       }
       if (want_grad)
         for (int a = 0; a < 3; ++a) gradient->segment<3>(3 * model_.faces(f, a)) += g.segment<3>(3 * a);
-      if (want_hess) {
-        const int* map = &face_map_[static_cast<size_t>(f) * 81];
-        for (int r = 0; r < 9; ++r)
-          for (int c = 0; c < 9; ++c)
-            if (map[9 * r + c] >= 0) values[map[9 * r + c]] += H(r, c);
-      }
+      if (want_hess)
+        for (int e = face_scatter_begin_[f]; e < face_scatter_begin_[f + 1]; ++e)
+          values[face_scatter_[e].value] += H.data()[face_scatter_[e].local];
     }
   }
 
   // Vertices: contact with the body field.
   if (fx.contact != ContactModel::kNone) {
+    if (want_grad) {
+      evaluated_positions_.resize(0, 3);  // until the samples below are complete
+      evaluated_phi_.resize(nv);
+      evaluated_phi_grad_.resize(nv, 3);
+    }
 #pragma omp parallel for schedule(static)
     for (int v = 0; v < nv; ++v) {
       Eigen::Vector3d g;
@@ -353,6 +361,10 @@ double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Ei
           EvaluateContactVertex(*model_.body, x.row(v).transpose(), &caches_[v], fx.contact,
                                 model_.contact_stiffness_N_per_m, want_grad ? &g : nullptr, want_hess ? &H : nullptr, true);
       vertex_energy_[v] = ce.energy_J;
+      if (want_grad) {
+        evaluated_phi_[v] = ce.supported ? ce.phi_m : std::numeric_limits<double>::quiet_NaN();
+        evaluated_phi_grad_.row(v) = ce.phi_grad.transpose();
+      }
       if (!friction_.empty() && friction_[v].mu_lambda_N > 0) {
         Eigen::Vector3d gf;
         Eigen::Matrix3d Hf;
@@ -362,14 +374,13 @@ double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Ei
         if (want_hess) H += Hf;
       }
       if (want_grad) gradient->segment<3>(3 * v) += g;
-      if (want_hess) {
-        const int* map = &vertex_map_[9 * v];
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j)
-            if (map[3 * i + j] >= 0) values[map[3 * i + j]] += H(i, j);
-      }
+      if (want_hess)
+        for (int e = vertex_scatter_begin_[v]; e < vertex_scatter_begin_[v + 1]; ++e)
+          values[vertex_scatter_[e].value] += H.data()[vertex_scatter_[e].local];
     }
   }
+
+  if (fx.contact != ContactModel::kNone && want_grad) evaluated_positions_ = x;
 
   // Serial sums in a fixed order keep results bit-identical whatever the thread count.
   EnergyBreakdown e;
@@ -402,6 +413,10 @@ Eigen::VectorXd GarmentSystem::VertexPhi(const Positions& x, Positions* grad) {
   Eigen::VectorXd phi = Eigen::VectorXd::Constant(num_vertices(), std::numeric_limits<double>::quiet_NaN());
   if (grad) grad->setZero(num_vertices(), 3);
   if (!model_.body) return phi;
+  if (grad && evaluated_positions_.rows() == x.rows() && evaluated_positions_ == x) {
+    *grad = evaluated_phi_grad_;
+    return evaluated_phi_;
+  }
   if (caches_.empty()) caches_.resize(num_vertices());
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < num_vertices(); ++v) {

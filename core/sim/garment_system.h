@@ -170,12 +170,23 @@ class GarmentSystem {
   int num_free_ = 0;
   Positions clamp_target_;
   std::vector<std::vector<int>> colors_;  // face groups with no shared vertex: parallel scatter without races
-  std::vector<int> face_map_;             // 81 per face: value index for (row, col) or -1
-  std::vector<int> vertex_map_;           // 9 per vertex
+  // Where a local Hessian's entries go: for each kept entry (the upper triangle's, free coordinates
+  // only), its index in the local matrix's column-major data and in the Hessian's values. Faces' lists
+  // run from face_scatter_begin_[f] to [f + 1], vertices' likewise.
+  struct ScatterEntry {
+    int local;
+    int value;
+  };
+  std::vector<ScatterEntry> face_scatter_, vertex_scatter_;
+  std::vector<int> face_scatter_begin_, vertex_scatter_begin_;
   Eigen::SparseMatrix<double> pattern_;
   std::vector<NeighborCache> caches_;
   std::vector<FrictionVertex> friction_;  // per vertex, lagged (empty: no friction yet)
   std::vector<double> face_energy_, vertex_energy_;
+  // Phi and grad Phi per vertex from the last evaluation with a gradient, and the positions they are
+  // for: VertexPhi at a state Newton has just evaluated reuses them instead of sampling the field again.
+  Eigen::VectorXd evaluated_phi_;
+  Positions evaluated_phi_grad_, evaluated_positions_;
   double force_scale_ = 1, mean_edge_ = 0, stiffness_scale_ = 1;
 };
 

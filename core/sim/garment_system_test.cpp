@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <array>
+#include <cmath>
 #include <memory>
 #include <random>
 
@@ -192,6 +193,40 @@ std::unique_ptr<GarmentSystem> PinnedUnilateralSleeve(SceneSpec* s) {
 // The line search's projection: a vertex that a trial step carries from off the body into it goes back
 // to just inside the surface; vertices in contact that the step leaves at the depth the linear model
 // predicts, clamped vertices, and the other contact models are left alone.
+// VertexPhi at the positions of the last evaluation with a gradient returns that evaluation's samples
+// (the line search asks for them at every step's start); they must be what sampling afresh gives, and a
+// different state must be sampled afresh.
+TEST(GarmentSystem, VertexPhiAfterAnEvaluationMatchesFreshSampling) {
+  Fixture a = MakeSystem(ContactModel::kUnilateral, Relaxation::kExact);
+  Fixture b = MakeSystem(ContactModel::kUnilateral, Relaxation::kExact);
+  Eigen::VectorXd g;
+  a.sys->Evaluate(a.x, &g, nullptr);
+  Positions grad_a, grad_b;
+  const Eigen::VectorXd phi_a = a.sys->VertexPhi(a.x, &grad_a);
+  const Eigen::VectorXd phi_b = b.sys->VertexPhi(b.x, &grad_b);  // never evaluated: sampled afresh
+  ASSERT_EQ(phi_a.size(), phi_b.size());
+  int supported = 0;
+  for (Eigen::Index v = 0; v < phi_a.size(); ++v) {
+    ASSERT_EQ(std::isnan(phi_a[v]), std::isnan(phi_b[v])) << "vertex " << v;
+    if (std::isnan(phi_a[v])) continue;
+    ++supported;
+    EXPECT_NEAR(phi_a[v], phi_b[v], 1e-15) << "vertex " << v;
+    EXPECT_LT((grad_a.row(v) - grad_b.row(v)).norm(), 1e-12) << "vertex " << v;
+  }
+  EXPECT_GT(supported, phi_a.size() / 2);
+  // Moved by 1 mm along x: not the evaluated state, so sampled there.
+  Positions moved = a.x;
+  moved.col(0).array() += 1e-3;
+  Positions grad_moved, grad_fresh;
+  const Eigen::VectorXd phi_moved = a.sys->VertexPhi(moved, &grad_moved);
+  const Eigen::VectorXd phi_fresh = b.sys->VertexPhi(moved, &grad_fresh);
+  for (Eigen::Index v = 0; v < phi_moved.size(); ++v) {
+    if (std::isnan(phi_fresh[v])) continue;
+    EXPECT_NEAR(phi_moved[v], phi_fresh[v], 1e-15) << "vertex " << v;
+  }
+  EXPECT_GT((phi_moved - phi_a).cwiseAbs().maxCoeff(), 1e-5);
+}
+
 TEST(GarmentSystem, ProjectCrossingsOntoBodyMovesOnlyTheVerticesThatCrossed) {
   SceneSpec s;
   std::unique_ptr<GarmentSystem> system = PinnedUnilateralSleeve(&s);
