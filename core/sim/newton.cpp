@@ -87,14 +87,14 @@ bool LocalStep(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& g, d
   Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> elimination;
   Eigen::AMDOrdering<int>()(graph.selfadjointView<Eigen::Upper>(), elimination);
   // Local numbering: the vertices in elimination order, each one's coordinates together.
-  std::vector<int> start(nodes + 1, 0);
+  std::vector<int> count(nodes, 0);  // region coordinates per vertex
   for (int i = 0; i < n; ++i)
-    if (node[i] >= 0) ++start[node[i] + 1];
+    if (node[i] >= 0) ++count[node[i]];
   std::vector<int> offset(nodes);  // first local index of each vertex
   for (int k = 0, next = 0; k < nodes; ++k) {
     const int v = elimination.indices()[k];
     offset[v] = next;
-    next += start[v + 1];
+    next += count[v];
   }
   std::vector<int> local(n, -1);
   for (int i = 0; i < n; ++i)
@@ -146,11 +146,16 @@ struct Simulator::Newton {
   int solves_since_probe = 0;
   Eigen::SparseMatrix<double> H;
   Eigen::SparseMatrix<double> H_trial;  // the Hessian at a line search's first trial (see SolveNewton)
+  std::vector<int> vertex_of;           // each free coordinate's vertex (for LocalStep)
 };
 
 Simulator::Simulator(GarmentSystem* system) : system_(system), newton_(std::make_unique<Newton>()) {
   newton_->H = system_->hessian_pattern();
   newton_->H_trial = newton_->H;
+  const std::vector<int>& free_index = system_->free_index();
+  newton_->vertex_of.resize(system_->num_free_dofs());
+  for (size_t d = 0; d < free_index.size(); ++d)
+    if (free_index[d] >= 0) newton_->vertex_of[free_index[d]] = static_cast<int>(d / 3);
 }
 
 Simulator::~Simulator() = default;
@@ -199,9 +204,6 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   }
   Eigen::VectorXd g = GatherFree(g_full, free_index, n);
   const double g0 = g.norm();
-  std::vector<int> vertex_of(n);
-  for (size_t d = 0; d < free_index.size(); ++d)
-    if (free_index[d] >= 0) vertex_of[free_index[d]] = static_cast<int>(d / 3);
   // Levenberg-Marquardt damping delta (N/m), adapted to how well the last step's quadratic model held:
   // shrinks after full steps (so it vanishes at convergence), grows after short ones. It bounds the steps
   // along the model's singular modes (slack cloth, sliding on the body, free translations). A warm
@@ -222,9 +224,11 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   Positions grad_from;
   Positions trial;
   Eigen::VectorXd g_trial_full;
-  EnergyBreakdown trial_energies;
+  // The last line-search trial's energy; with trial_derivatives, g_trial_full, nt.H_trial and
+  // trial_energies hold its gradient, Hessian and breakdown.
+  double E_new = 0;
   bool trial_derivatives = false;
-  double E_new = 0;  // g_trial_full, nt.H_trial and trial_energies hold the last trial's
+  EnergyBreakdown trial_energies;
   // Cut steps that no longer lower the energy beyond round-off, in a row. On a C0 energy (the authors'
   // relaxation) Newton ends up straddling the gradient jump: the residual cannot fall, the energy has
   // converged, and without this count the solve would spend its whole iteration budget there.
@@ -301,7 +305,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       //    whatever the caller changed (a new design, a new pose), which moves the whole garment.
       if (!have_step && settings.local_steps && attempt == 0 && it > 0) {
         t = Clock::now();
-        have_step = used_local = LocalStep(nt.H, g, delta, vertex_of, &p);
+        have_step = used_local = LocalStep(nt.H, g, delta, nt.vertex_of, &p);
         rep.solve_s += Seconds(t, Clock::now());
       }
       // 3) Fresh factorization of H + delta I (raising delta until CHOLMOD succeeds).
