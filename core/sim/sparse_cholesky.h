@@ -12,7 +12,8 @@
 // factored densely (LAPACK). Solves run the two domains' triangular solves in parallel as well.
 // The separator is METIS's bisector moved, along breadth-first levels, towards the larger side until
 // the domains' factorization work balances; the split is kept only when the estimated critical path
-// (larger domain plus the dense separator work) is below 0.85 of the whole factorization's work.
+// (larger domain plus the dense separator work) is below 0.85 of the whole factorization's work (both
+// domains' blocks together). The whole system is analyzed only when no split is kept.
 // Below ~9k unknowns, or when no split pays, it is a plain CHOLMOD factorization.
 //
 // Results do not depend on the number of threads: the same operations run whether the two domains

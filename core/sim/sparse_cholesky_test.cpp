@@ -5,6 +5,7 @@
 
 #include <Eigen/Dense>
 #include <random>
+#include <thread>
 #include <vector>
 
 namespace kgd {
@@ -122,6 +123,39 @@ TEST(SparseCholesky, ResultsDoNotDependOnTheNumberOfThreads) {
   const Eigen::VectorXd parallel = c.Solve(b);
   omp_set_num_threads(threads);
   EXPECT_EQ((serial - parallel).cwiseAbs().maxCoeff(), 0.0);
+}
+
+// METIS draws from one process-wide random state; analyses running at once on two threads (a worker
+// with two jobs) must still order the unknowns as an analysis alone does.
+TEST(SparseCholesky, AnalysesAtOnceOrderAsOneAlone) {
+  const SpMat A = TubeSystem(40, 100, 6);
+  const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(A.rows(), -2.0, 1.0);
+  auto solve = [&](bool allow_split, std::vector<int>* separator, Eigen::VectorXd* x) {
+    SparseCholesky c;
+    c.Analyze(A, allow_split);
+    *separator = c.separator();
+    *x = c.Factorize(A, 1e-2) ? c.Solve(b) : Eigen::VectorXd();
+  };
+  for (bool allow_split : {true, false}) {
+    std::vector<int> separator;
+    Eigen::VectorXd alone;
+    solve(allow_split, &separator, &alone);
+    ASSERT_EQ(alone.size(), A.rows());
+    std::vector<int> seps[2][4];
+    Eigen::VectorXd xs[2][4];
+    std::thread others[2];
+    for (int t = 0; t < 2; ++t)
+      others[t] = std::thread([&, t] {
+        for (int k = 0; k < 4; ++k) solve(allow_split, &seps[t][k], &xs[t][k]);
+      });
+    for (auto& t : others) t.join();
+    for (int t = 0; t < 2; ++t)
+      for (int k = 0; k < 4; ++k) {
+        EXPECT_EQ(seps[t][k], separator) << "thread " << t << ", analysis " << k << ", split " << allow_split;
+        ASSERT_EQ(xs[t][k].size(), A.rows());
+        EXPECT_EQ((xs[t][k] - alone).cwiseAbs().maxCoeff(), 0.0) << "thread " << t << ", analysis " << k << ", split " << allow_split;
+      }
+  }
 }
 
 }  // namespace
