@@ -183,11 +183,7 @@ struct SparseCholesky::Impl {
     UseSerialBlas();
   }
 
-  // The cheapest split found (cost: its critical path in flops; it sets domain and separator), or
-  // +infinity when none was (domain stays empty).
-  double ProposeSplit(const SpMat& upper);
-  // Completes a proposed split: the separator's entries and the dense blocks.
-  void AcceptSplit(const SpMat& upper);
+  bool SplitFrom(const SpMat& upper);
   bool FactorDomain(Domain& d, const SpMat& upper, double shift);
 
   Eigen::CholmodSupernodalLLT<SpMat, Eigen::Upper> plain;
@@ -201,17 +197,16 @@ struct SparseCholesky::Impl {
   Eigen::MatrixXd schur;                               // Cholesky factor (lower) of the separator's Schur complement
 };
 
-// Finds two domains and a separator with the shortest critical path of their factorizations, and
-// analyzes them.
-double SparseCholesky::Impl::ProposeSplit(const SpMat& upper) {
-  constexpr double kNone = std::numeric_limits<double>::infinity();
+// Finds two domains and a separator whose factorizations' critical path is clearly shorter than the
+// whole factorization, and analyzes them. False (no split) when none is.
+bool SparseCholesky::Impl::SplitFrom(const SpMat& upper) {
   cholmod_sparse view = ViewUpper(upper);
   std::vector<int> part(n, 0);  // 0, 1: domains; 2: separator
   {
     Domain scratch;  // for its CHOLMOD workspace
     if (cholmod_bisect(&view, nullptr, 0, /*compress=*/1, part.data(), &scratch.common) <= 0 ||
         scratch.common.status != CHOLMOD_OK)
-      return kNone;
+      return false;
   }
   // METIS's bisector is a small separator but often an unbalanced one (on the arm flexion sleeve it
   // left a third of the work on one side, two thirds on the other). Breadth-first levels from it into
@@ -250,7 +245,7 @@ double SparseCholesky::Impl::ProposeSplit(const SpMat& upper) {
     smaller_side = with_next;
     ++balanced;
   }
-  double best = kNone;
+  double best = std::numeric_limits<double>::infinity();
   std::vector<int> cuts = {0};
   if (balanced > 0) cuts.push_back(balanced);
   for (int cut : cuts) {
@@ -273,10 +268,16 @@ double SparseCholesky::Impl::ProposeSplit(const SpMat& upper) {
     separator = sep;
     for (int k = 0; k < 2; ++k) domain[k] = std::move(trial[k]);
   }
-  return best;
-}
-
-void SparseCholesky::Impl::AcceptSplit(const SpMat& upper) {
+  // The whole factorization in the split's order (both domains, then the separator) costs what the two
+  // bordered blocks cost less one dense separator block; that is within 4 % of the whole system's own
+  // analysis on our garments (arm 283 / 283 MFlop, shorts 424 / 408, slouch 893 / 890), which is
+  // therefore run only when no split is kept: it took as long as the split's.
+  if (!domain[0] || best >= kSplitWorthIt * (domain[0]->flops + domain[1]->flops)) {
+    domain[0].reset();
+    domain[1].reset();
+    separator.clear();
+    return false;
+  }
   const int ns = static_cast<int>(separator.size());
   std::vector<int> pos(n, -1);
   for (int i = 0; i < ns; ++i) pos[separator[i]] = i;
@@ -292,7 +293,7 @@ void SparseCholesky::Impl::AcceptSplit(const SpMat& upper) {
   schur.resize(ns, ns);
   for (auto& d : domain) d->trailing.resize(ns, ns);
   nonzeros = domain[0]->nonzeros + domain[1]->nonzeros + 0.5 * ns * (ns + 1);
-  split = true;
+  return true;
 }
 
 bool SparseCholesky::Impl::FactorDomain(Domain& d, const SpMat& upper, double shift) {
@@ -335,20 +336,8 @@ void SparseCholesky::Analyze(const SpMat& upper, bool allow_split) {
   Impl& m = *impl_;
   m.n = static_cast<int>(upper.rows());
   m.analyzed = true;
-  if (allow_split && m.n >= kMinSplitUnknowns) {
-    const double cost = m.ProposeSplit(upper);
-    // The whole factorization in the split's order (both domains, then the separator) costs what the
-    // two bordered blocks cost less one dense separator block; that is within 4 % of the whole
-    // system's own analysis on our garments (arm 283 / 283 MFlop, shorts 424 / 408, slouch 893 / 890),
-    // which is therefore not run: it took as long as the split's.
-    if (m.domain[0] && cost < kSplitWorthIt * (m.domain[0]->flops + m.domain[1]->flops)) {
-      m.AcceptSplit(upper);
-      return;
-    }
-    m.domain[0].reset();
-    m.domain[1].reset();
-    m.separator.clear();
-  }
+  m.split = allow_split && m.n >= kMinSplitUnknowns && m.SplitFrom(upper);
+  if (m.split) return;
   m.plain.analyzePattern(upper);
   m.nonzeros = m.plain.cholmod().lnz;
 }
