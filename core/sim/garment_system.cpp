@@ -1,7 +1,5 @@
 #include "core/sim/garment_system.h"
 
-#include "core/mesh/topology.h"
-
 #include <Eigen/Geometry>
 #include <Eigen/SparseCholesky>
 #include <algorithm>
@@ -10,6 +8,7 @@
 #include <sstream>
 
 #include "core/mesh/topology.h"
+#include "core/util/serial_blas.h"
 
 namespace kgd {
 namespace {
@@ -79,6 +78,7 @@ Status ValidateModel(const GarmentModel& m) {
 }
 
 GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : model_(std::move(model)) {
+  UseSerialBlas();  // before our first parallel region: OpenBLAS's idle workers would take a core from it
   const int nv = num_vertices(), nf = num_faces();
   elements_.resize(nf);
   for (int f = 0; f < nf; ++f)

@@ -1,6 +1,5 @@
 #include "core/sim/sparse_cholesky.h"
 
-#include <dlfcn.h>
 #include <omp.h>
 
 #include <Eigen/CholmodSupport>
@@ -10,6 +9,8 @@
 #include <mutex>
 #include <utility>
 #include <vector>
+
+#include "core/util/serial_blas.h"
 
 // BLAS/LAPACK (OpenBLAS on Debian) for the dense separator block. The trailing lengths are gfortran's
 // hidden CHARACTER lengths; C implementations ignore them.
@@ -29,20 +30,12 @@ constexpr int kMinSplitUnknowns = 9000;
 // Keep a split only when its estimated critical path is below this fraction of the whole factorization.
 constexpr double kSplitWorthIt = 0.85;
 
-// Our factors have thousands of small supernodes (fronts of tens to a few hundred rows). On them
-// threading costs more than it gives: OpenBLAS's idle threads spin in sched_yield, and CHOLMOD 3.0
-// (SuiteSparse 5.12) opens an OpenMP team of a compiled-in 4 threads for every supernode it zeroes,
-// whatever OMP_NUM_THREADS says. On 2 cores the two fight: on the 7k-vertex sleeve a factorization
-// took 120 ms, half of it in the kernel; serial it takes ~55 ms (docs/PERFORMANCE.md). Serial BLAS
-// also makes results independent of the machine's core count. The two cores go to the two domains.
-void UseSerialBlas() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    // Looked up, not linked: the BLAS behind libblas.so.3 may be another implementation.
-    using SetThreads = void (*)(int);
-    if (auto set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(1);
-  });
-}
+// Our factors have thousands of small supernodes (fronts of tens to a few hundred rows). On them BLAS
+// threading costs more than it gives (UseSerialBlas), and CHOLMOD 3.0 (SuiteSparse 5.12) opens an
+// OpenMP team of a compiled-in 4 threads for every supernode it zeroes, whatever OMP_NUM_THREADS says.
+// On 2 cores the two fought: on the 7k-vertex sleeve a factorization took 120 ms, half of it in the
+// kernel; serial it takes ~55 ms (docs/PERFORMANCE.md). Serial BLAS also makes results independent of
+// the machine's core count. The two cores go to the two domains.
 
 // Limits OpenMP's active nesting while alive: 0 runs CHOLMOD's OpenMP regions on the calling thread;
 // 1 lets our two-domain region run on two threads while CHOLMOD's regions inside it stay serial. The
