@@ -141,6 +141,17 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
       if (c >= static_cast<int>(colors_.size())) colors_.resize(c + 1);
       colors_[c].push_back(f);
     }
+    face_color_ = std::move(color_of);
+  }
+  vertex_faces_begin_.assign(nv + 1, 0);
+  for (int f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) ++vertex_faces_begin_[model_.faces(f, k) + 1];
+  for (int v = 0; v < nv; ++v) vertex_faces_begin_[v + 1] += vertex_faces_begin_[v];
+  vertex_faces_.resize(vertex_faces_begin_[nv]);
+  {
+    std::vector<int> fill(vertex_faces_begin_.begin(), vertex_faces_begin_.end() - 1);
+    for (int f = 0; f < nf; ++f)
+      for (int k = 0; k < 3; ++k) vertex_faces_[fill[model_.faces(f, k)]++] = f;
   }
 
   // Sparsity: every face couples its three vertices; vertex blocks cover contact.
@@ -199,11 +210,15 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
   }
 
   if (model_.effects.contact != ContactModel::kNone) caches_.resize(nv);
-  face_energy_.assign(nf, 0.0);
-  vertex_energy_.assign(nv, 0.0);
+  face_mark_.assign(nf, 0);
+  vertex_mark_.assign(nv, 0);
+  entry_mark_.assign(pattern_.nonZeros(), 0);
 }
 
-void GarmentSystem::SetDesign(const std::vector<uint8_t>& design) { model_.design = design; }
+void GarmentSystem::SetDesign(const std::vector<uint8_t>& design) {
+  model_.design = design;
+  ++version_;
+}
 
 void GarmentSystem::ApplyClamps(Positions* x) const {
   for (int d = 0; d < 3 * num_vertices(); ++d)
@@ -279,120 +294,315 @@ double GarmentSystem::MaxFoldSafeStep(const Positions& x, const Positions& d) co
   return step;
 }
 
+struct GarmentSystem::FaceTerms {
+  double membrane_J = 0, fold_barrier_J = 0, attachment_J = 0;
+  bool scatter = false;  // false when a term is not finite: the face adds nothing to the derivatives
+  Vector9d g;
+  Matrix9d H;
+
+  void StoreIn(int f, EvaluationRecord* r) const {
+    r->membrane_J[f] = membrane_J;
+    if (!r->fold_barrier_J.empty()) r->fold_barrier_J[f] = fold_barrier_J;
+    if (!r->attachment_J.empty()) r->attachment_J[f] = attachment_J;
+  }
+};
+
+struct GarmentSystem::VertexTerms {
+  double contact_J = 0, friction_J = 0;
+  double phi = 0;  // NaN where the field has no support
+  Eigen::Vector3d phi_grad;
+  Eigen::Vector3d g;
+  Eigen::Matrix3d H;
+
+  void StoreIn(int v, EvaluationRecord* r) const {
+    r->contact_J[v] = contact_J;
+    if (!r->friction_J.empty()) r->friction_J[v] = friction_J;
+    if (r->phi.size() > 0) {
+      r->phi[v] = phi;
+      r->phi_grad.row(v) = phi_grad.transpose();
+    }
+  }
+};
+
+void GarmentSystem::EvaluateFace(int f, const Positions& x, bool want_grad, bool want_hess, FaceTerms* t) const {
+  const Effects& fx = model_.effects;
+  const Eigen::Vector3d x0 = x.row(model_.faces(f, 0)), x1 = x.row(model_.faces(f, 1)), x2 = x.row(model_.faces(f, 2));
+  t->membrane_J = t->fold_barrier_J = t->attachment_J = 0;
+  t->scatter = false;
+  if (want_grad) t->g.setZero();
+  if (want_hess) t->H.setZero();
+  const int m = model_.design[f];
+  if (fx.membrane) {
+    Vector9d ge;
+    Matrix9d He;
+    const ElementEvaluation ev = EvaluateMembraneElement(elements_[f], x0, x1, x2, lame_[m], thickness_[m], fx.relaxation,
+                                                         want_grad ? &ge : nullptr, want_hess ? &He : nullptr, true);
+    t->membrane_J = ev.energy_J;
+    if (!std::isfinite(ev.energy_J)) return;
+    if (want_grad) t->g += ge;
+    if (want_hess) t->H += He;
+  }
+  if (fx.fold_barrier) {
+    Vector9d gb;
+    Matrix9d Hb;
+    const double eb = EvaluateFoldBarrier(x0, x1, x2, fold_reference_[f], elements_[f].rest_area_m2,
+                                          lame_[m].mu_Pa * thickness_[m] * elements_[f].rest_area_m2,
+                                          want_grad ? &gb : nullptr, want_hess ? &Hb : nullptr, true);
+    t->fold_barrier_J = eb;
+    if (!std::isfinite(eb)) return;
+    if (eb > 0) {
+      if (want_grad) t->g += gb;
+      if (want_hess) t->H += Hb;
+    }
+  }
+  if (fx.attachments && attach_index_[f] >= 0) {
+    Vector9d ga;
+    t->attachment_J = EvaluateAttachmentFace(model_.attachments, attach_index_[f], x0, x1, x2, want_grad ? &ga : nullptr);
+    if (want_grad) t->g += ga;
+    if (want_hess) {
+      const double c = 2.0 * AttachmentFaceStiffness(model_.attachments) / 9.0;
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) t->H.block<3, 3>(3 * a, 3 * b).diagonal().array() += c;
+    }
+  }
+  t->scatter = true;
+}
+
+void GarmentSystem::EvaluateVertex(int v, const Positions& x, bool want_grad, bool want_hess, VertexTerms* t) {
+  const Effects& fx = model_.effects;
+  const ContactEvaluation ce = EvaluateContactVertex(*model_.body, x.row(v).transpose(), &caches_[v], fx.contact,
+                                                     model_.contact_stiffness_N_per_m, want_grad ? &t->g : nullptr,
+                                                     want_hess ? &t->H : nullptr, true);
+  t->contact_J = ce.energy_J;
+  t->phi = ce.supported ? ce.phi_m : std::numeric_limits<double>::quiet_NaN();
+  t->phi_grad = ce.phi_grad;
+  t->friction_J = 0;
+  if (!friction_.empty() && friction_[v].mu_lambda_N > 0) {
+    Eigen::Vector3d gf;
+    Eigen::Matrix3d Hf;
+    t->friction_J = EvaluateFriction(friction_[v], x.row(v).transpose(), model_.friction_slip_m, want_grad ? &gf : nullptr,
+                                     want_hess ? &Hf : nullptr);
+    if (want_grad) t->g += gf;
+    if (want_hess) t->H += Hf;
+  }
+}
+
+double GarmentSystem::SumEnergies(const EvaluationRecord& r, EnergyBreakdown* breakdown) const {
+  // Serial sums in a fixed order keep results bit-identical whatever the thread count, and whether the
+  // record was filled by Evaluate or EvaluateFrom.
+  EnergyBreakdown e;
+  for (double fe : r.membrane_J) e.membrane_J += fe;
+  for (double ae : r.attachment_J) e.attachment_J += ae;
+  for (double be : r.fold_barrier_J) e.fold_barrier_J += be;
+  for (double fe : r.friction_J) e.friction_J += fe;
+  for (double ve : r.contact_J) e.contact_J += ve;
+  if (breakdown) *breakdown = e;
+  const double total = e.total_J();
+  return std::isnan(total) ? std::numeric_limits<double>::infinity() : total;
+}
+
 double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Eigen::SparseMatrix<double>* hessian,
-                               EnergyBreakdown* breakdown) {
-  const int nv = num_vertices();
+                               EnergyBreakdown* breakdown, EvaluationRecord* record) {
+  const int nv = num_vertices(), nf = num_faces();
   const bool want_grad = gradient != nullptr, want_hess = hessian != nullptr;
   if (want_grad) gradient->setZero(3 * nv);
   double* values = want_hess ? hessian->valuePtr() : nullptr;
   if (want_hess) std::fill(values, values + hessian->nonZeros(), 0.0);
   const Effects& fx = model_.effects;
-  const bool attach = fx.attachments && !model_.attachments.faces.empty();
-  const double attach_kf = attach ? AttachmentFaceStiffness(model_.attachments) : 0.0;
-  std::vector<double> attach_energy(attach ? num_faces() : 0, 0.0);
-  std::vector<double> fold_energy(fx.fold_barrier ? num_faces() : 0, 0.0);
-  std::vector<double> friction_energy(friction_.empty() ? 0 : num_vertices(), 0.0);
+  const bool contact = fx.contact != ContactModel::kNone;
+  EvaluationRecord& r = record ? *record : scratch_;
+  r.membrane_J.assign(nf, 0.0);
+  r.attachment_J.assign(fx.attachments && !model_.attachments.faces.empty() ? nf : 0, 0.0);
+  r.fold_barrier_J.assign(fx.fold_barrier ? nf : 0, 0.0);
+  r.contact_J.assign(contact ? nv : 0, 0.0);
+  r.friction_J.assign(contact && !friction_.empty() ? nv : 0, 0.0);
+  r.phi.resize(contact && want_grad ? nv : 0);
+  r.phi_grad.resize(contact && want_grad ? nv : 0, 3);
 
-  // Faces: membrane and attachments. One colour at a time; faces of a colour share no vertex.
+  // Faces: membrane, fold barrier and attachments. One colour at a time; faces of a colour share no vertex.
   for (const std::vector<int>& color : colors_) {
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < color.size(); ++i) {
       const int f = color[i];
-      const Eigen::Vector3d x0 = x.row(model_.faces(f, 0)), x1 = x.row(model_.faces(f, 1)), x2 = x.row(model_.faces(f, 2));
-      Vector9d g = Vector9d::Zero();
-      Matrix9d H = Matrix9d::Zero();
-      face_energy_[f] = 0;
-      if (fx.membrane) {
-        const int m = model_.design[f];
-        Vector9d ge;
-        Matrix9d He;
-        const ElementEvaluation ev = EvaluateMembraneElement(elements_[f], x0, x1, x2, lame_[m], thickness_[m],
-                                                             fx.relaxation, want_grad ? &ge : nullptr,
-                                                             want_hess ? &He : nullptr, true);
-        face_energy_[f] = ev.energy_J;
-        if (!std::isfinite(ev.energy_J)) continue;
-        if (want_grad) g += ge;
-        if (want_hess) H += He;
-      }
-      if (fx.fold_barrier) {
-        const int m = model_.design[f];
-        Vector9d gb;
-        Matrix9d Hb;
-        const double eb = EvaluateFoldBarrier(x0, x1, x2, fold_reference_[f], elements_[f].rest_area_m2,
-                                              lame_[m].mu_Pa * thickness_[m] * elements_[f].rest_area_m2,
-                                              want_grad ? &gb : nullptr, want_hess ? &Hb : nullptr, true);
-        fold_energy[f] = eb;
-        if (!std::isfinite(eb)) continue;
-        if (eb > 0) {
-          if (want_grad) g += gb;
-          if (want_hess) H += Hb;
-        }
-      }
-      if (attach && attach_index_[f] >= 0) {
-        Vector9d ga;
-        attach_energy[f] = EvaluateAttachmentFace(model_.attachments, attach_index_[f], x0, x1, x2, want_grad ? &ga : nullptr);
-        if (want_grad) g += ga;
-        if (want_hess) {
-          const double c = 2.0 * attach_kf / 9.0;
-          for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b) H.block<3, 3>(3 * a, 3 * b).diagonal().array() += c;
-        }
-      }
+      FaceTerms t;
+      EvaluateFace(f, x, want_grad, want_hess, &t);
+      t.StoreIn(f, &r);
+      if (!t.scatter) continue;
       if (want_grad)
-        for (int a = 0; a < 3; ++a) gradient->segment<3>(3 * model_.faces(f, a)) += g.segment<3>(3 * a);
+        for (int a = 0; a < 3; ++a) gradient->segment<3>(3 * model_.faces(f, a)) += t.g.segment<3>(3 * a);
       if (want_hess)
         for (int e = face_scatter_begin_[f]; e < face_scatter_begin_[f + 1]; ++e)
-          values[face_scatter_[e].value] += H.data()[face_scatter_[e].local];
+          values[face_scatter_[e].value] += t.H.data()[face_scatter_[e].local];
     }
   }
 
-  // Vertices: contact with the body field.
-  if (fx.contact != ContactModel::kNone) {
-    if (want_grad) {
-      evaluated_positions_.resize(0, 3);  // until the samples below are complete
-      evaluated_phi_.resize(nv);
-      evaluated_phi_grad_.resize(nv, 3);
-    }
+  // Vertices: contact with the body field, friction.
+  if (contact) {
 #pragma omp parallel for schedule(static)
     for (int v = 0; v < nv; ++v) {
-      Eigen::Vector3d g;
-      Eigen::Matrix3d H;
-      const ContactEvaluation ce =
-          EvaluateContactVertex(*model_.body, x.row(v).transpose(), &caches_[v], fx.contact,
-                                model_.contact_stiffness_N_per_m, want_grad ? &g : nullptr, want_hess ? &H : nullptr, true);
-      vertex_energy_[v] = ce.energy_J;
-      if (want_grad) {
-        evaluated_phi_[v] = ce.supported ? ce.phi_m : std::numeric_limits<double>::quiet_NaN();
-        evaluated_phi_grad_.row(v) = ce.phi_grad.transpose();
-      }
-      if (!friction_.empty() && friction_[v].mu_lambda_N > 0) {
-        Eigen::Vector3d gf;
-        Eigen::Matrix3d Hf;
-        friction_energy[v] = EvaluateFriction(friction_[v], x.row(v).transpose(), model_.friction_slip_m, want_grad ? &gf : nullptr,
-                                              want_hess ? &Hf : nullptr);
-        if (want_grad) g += gf;
-        if (want_hess) H += Hf;
-      }
-      if (want_grad) gradient->segment<3>(3 * v) += g;
+      VertexTerms t;
+      EvaluateVertex(v, x, want_grad, want_hess, &t);
+      t.StoreIn(v, &r);
+      if (want_grad) gradient->segment<3>(3 * v) += t.g;
       if (want_hess)
         for (int e = vertex_scatter_begin_[v]; e < vertex_scatter_begin_[v + 1]; ++e)
-          values[vertex_scatter_[e].value] += H.data()[vertex_scatter_[e].local];
+          values[vertex_scatter_[e].value] += t.H.data()[vertex_scatter_[e].local];
     }
   }
+  if (record) {
+    r.x = x;
+    r.version = version_;
+  }
+  return SumEnergies(r, breakdown);
+}
 
-  if (fx.contact != ContactModel::kNone && want_grad) evaluated_positions_ = x;
+double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::VectorXd* base_gradient,
+                                   const Eigen::SparseMatrix<double>* base_hessian, const Positions& x,
+                                   Eigen::VectorXd* gradient, Eigen::SparseMatrix<double>* hessian,
+                                   EnergyBreakdown* breakdown, EvaluationRecord* record) {
+  const int nv = num_vertices(), nf = num_faces();
+  const bool want_grad = gradient != nullptr, want_hess = hessian != nullptr;
+  const bool contact = model_.effects.contact != ContactModel::kNone;
+  const bool usable = base.version == version_ && base.x.rows() == nv && static_cast<int>(base.membrane_J.size()) == nf &&
+                      (!want_grad || (base_gradient && base_gradient->size() == 3 * nv &&
+                                      (!contact || base.phi.size() == nv))) &&
+                      (!want_hess || (want_grad && base_hessian && base_hessian->nonZeros() == pattern_.nonZeros() &&
+                                      hessian->nonZeros() == pattern_.nonZeros()));
+  std::vector<int> moved;
+  if (usable)
+    for (int v = 0; v < nv; ++v)
+      if (x(v, 0) != base.x(v, 0) || x(v, 1) != base.x(v, 1) || x(v, 2) != base.x(v, 2)) moved.push_back(v);
+  if (!usable || 3 * moved.size() > static_cast<size_t>(nv)) return Evaluate(x, gradient, hessian, breakdown, record);
 
-  // Serial sums in a fixed order keep results bit-identical whatever the thread count.
-  EnergyBreakdown e;
-  for (double fe : face_energy_) e.membrane_J += fe;
-  for (double ae : attach_energy) e.attachment_J += ae;
-  for (double be : fold_energy) e.fold_barrier_J += be;
-  for (double fe : friction_energy) e.friction_J += fe;
-  if (fx.contact != ContactModel::kNone)
-    for (double ve : vertex_energy_) e.contact_J += ve;
-  if (breakdown) *breakdown = e;
-  const double total = e.total_J();
-  return std::isnan(total) ? std::numeric_limits<double>::infinity() : total;
+  if (mark_ > std::numeric_limits<int>::max() - 4) {
+    std::fill(face_mark_.begin(), face_mark_.end(), 0);
+    std::fill(vertex_mark_.begin(), vertex_mark_.end(), 0);
+    std::fill(entry_mark_.begin(), entry_mark_.end(), 0);
+    mark_ = 0;
+  }
+  mark_ += 2;
+  const int changed = mark_, near = mark_ + 1;  // face marks: terms changed; only recomputed for the sums
+  EvaluationRecord& r = record ? *record : scratch_;
+  if (&r != &base) {
+    r.membrane_J = base.membrane_J;
+    r.attachment_J = base.attachment_J;
+    r.fold_barrier_J = base.fold_barrier_J;
+    r.contact_J = base.contact_J;
+    r.friction_J = base.friction_J;
+    if (want_grad) {
+      r.phi = base.phi;
+      r.phi_grad = base.phi_grad;
+    }
+  }
+  if (!want_grad) {
+    r.phi.resize(0);
+    r.phi_grad.resize(0, 3);
+  }
+  // The faces whose terms change: those around a moved vertex.
+  std::vector<int> faces;
+  for (int v : moved)
+    for (int k = vertex_faces_begin_[v]; k < vertex_faces_begin_[v + 1]; ++k) {
+      const int f = vertex_faces_[k];
+      if (face_mark_[f] != changed) {
+        face_mark_[f] = changed;
+        faces.push_back(f);
+      }
+    }
+
+  if (!want_grad && !want_hess) {
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < faces.size(); ++i) {
+      FaceTerms t;
+      EvaluateFace(faces[i], x, false, false, &t);
+      t.StoreIn(faces[i], &r);
+    }
+    if (contact) {
+#pragma omp parallel for schedule(static)
+      for (size_t i = 0; i < moved.size(); ++i) {
+        VertexTerms t;
+        EvaluateVertex(moved[i], x, false, false, &t);
+        t.StoreIn(moved[i], &r);
+      }
+    }
+  } else {
+    // The vertices whose gradient and Hessian block change: those of changed faces, and moved ones. Each
+    // of their entries is summed again from all its terms, in Evaluate's order (faces by colour, then the
+    // vertex's own terms), from zero.
+    std::vector<int> vertices;
+    auto add_vertex = [&](int v) {
+      if (vertex_mark_[v] != changed) {
+        vertex_mark_[v] = changed;
+        vertices.push_back(v);
+      }
+    };
+    for (int v : moved) add_vertex(v);
+    for (int f : faces)
+      for (int k = 0; k < 3; ++k) add_vertex(model_.faces(f, k));
+    double* values = nullptr;
+    if (want_hess) {
+      values = hessian->valuePtr();
+      if (hessian != base_hessian) std::copy(base_hessian->valuePtr(), base_hessian->valuePtr() + pattern_.nonZeros(), values);
+      for (int f : faces)
+        for (int e = face_scatter_begin_[f]; e < face_scatter_begin_[f + 1]; ++e) {
+          entry_mark_[face_scatter_[e].value] = changed;
+          values[face_scatter_[e].value] = 0.0;
+        }
+      for (int v : moved)
+        for (int e = vertex_scatter_begin_[v]; e < vertex_scatter_begin_[v + 1]; ++e) {
+          entry_mark_[vertex_scatter_[e].value] = changed;
+          values[vertex_scatter_[e].value] = 0.0;
+        }
+    }
+    if (gradient != base_gradient) *gradient = *base_gradient;
+    for (int v : vertices) gradient->segment<3>(3 * v).setZero();
+    // Every face that adds to those entries: the faces around their vertices, by colour.
+    std::vector<std::vector<int>> by_color(colors_.size());
+    for (int v : vertices)
+      for (int k = vertex_faces_begin_[v]; k < vertex_faces_begin_[v + 1]; ++k) {
+        const int f = vertex_faces_[k];
+        if (face_mark_[f] == changed) continue;
+        if (face_mark_[f] != near) {
+          face_mark_[f] = near;
+          by_color[face_color_[f]].push_back(f);
+        }
+      }
+    for (int f : faces) by_color[face_color_[f]].push_back(f);
+    for (const std::vector<int>& color : by_color) {
+#pragma omp parallel for schedule(static)
+      for (size_t i = 0; i < color.size(); ++i) {
+        const int f = color[i];
+        FaceTerms t;
+        EvaluateFace(f, x, true, want_hess, &t);
+        if (face_mark_[f] == changed) t.StoreIn(f, &r);
+        if (!t.scatter) continue;
+        for (int a = 0; a < 3; ++a) {
+          const int v = model_.faces(f, a);
+          if (vertex_mark_[v] == changed) gradient->segment<3>(3 * v) += t.g.segment<3>(3 * a);
+        }
+        if (want_hess)
+          for (int e = face_scatter_begin_[f]; e < face_scatter_begin_[f + 1]; ++e)
+            if (entry_mark_[face_scatter_[e].value] == changed) values[face_scatter_[e].value] += t.H.data()[face_scatter_[e].local];
+      }
+    }
+    if (contact) {
+#pragma omp parallel for schedule(static)
+      for (size_t i = 0; i < vertices.size(); ++i) {
+        const int v = vertices[i];
+        VertexTerms t;
+        EvaluateVertex(v, x, true, want_hess, &t);
+        t.StoreIn(v, &r);
+        gradient->segment<3>(3 * v) += t.g;
+        if (want_hess)
+          for (int e = vertex_scatter_begin_[v]; e < vertex_scatter_begin_[v + 1]; ++e)
+            if (entry_mark_[vertex_scatter_[e].value] == changed) values[vertex_scatter_[e].value] += t.H.data()[vertex_scatter_[e].local];
+      }
+    }
+  }
+  if (record) {
+    r.x = x;
+    r.version = version_;
+  }
+  return SumEnergies(r, breakdown);
 }
 
 void GarmentSystem::FaceDensities(const Positions& x, Eigen::VectorXd* density, std::vector<MembraneRegime>* regime) const {
@@ -413,10 +623,6 @@ Eigen::VectorXd GarmentSystem::VertexPhi(const Positions& x, Positions* grad) {
   Eigen::VectorXd phi = Eigen::VectorXd::Constant(num_vertices(), std::numeric_limits<double>::quiet_NaN());
   if (grad) grad->setZero(num_vertices(), 3);
   if (!model_.body) return phi;
-  if (grad && evaluated_positions_.rows() == x.rows() && evaluated_positions_ == x) {
-    *grad = evaluated_phi_grad_;
-    return evaluated_phi_;
-  }
   if (caches_.empty()) caches_.resize(num_vertices());
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < num_vertices(); ++v) {
@@ -483,6 +689,7 @@ void GarmentSystem::LagFriction(const Positions& x) {
     lagged[v] = ::kgd::LagFriction(anchor.row(v).transpose(), g, g.norm(), model_.effects.friction);
   }
   friction_ = std::move(lagged);
+  ++version_;
 }
 
 }  // namespace kgd

@@ -83,6 +83,18 @@ struct EnergyBreakdown {
   double total_J() const { return membrane_J + contact_J + attachment_J + fold_barrier_J + friction_J; }
 };
 
+// What one evaluation leaves for a later one near it (GarmentSystem::EvaluateFrom): where it was made and
+// each term's energy there. Valid for the system that made it while its design and lagged friction stay.
+struct EvaluationRecord {
+  Positions x;
+  std::vector<double> membrane_J, attachment_J, fold_barrier_J;  // per face (empty when the term is off)
+  std::vector<double> contact_J, friction_J;                     // per vertex (empty when the term is off)
+  // Contact: Phi (NaN where unsupported) and grad Phi per vertex; empty when no gradient was evaluated.
+  Eigen::VectorXd phi;
+  Positions phi_grad;
+  int version = -1;  // the system's design and friction version it was made with
+};
+
 class GarmentSystem {
  public:
   // Precondition: ValidateModel(model).ok(), and `initial` has one row per rest vertex. Clamp targets
@@ -115,8 +127,22 @@ class GarmentSystem {
 
   // Total energy at x (+infinity where undefined) and, on request, the gradient over all 3n coordinates
   // and the projected Hessian over the free ones. `hessian` must be a copy of hessian_pattern().
+  // With `record`, also leaves there what EvaluateFrom needs.
   double Evaluate(const Positions& x, Eigen::VectorXd* gradient, Eigen::SparseMatrix<double>* hessian,
-                  EnergyBreakdown* breakdown = nullptr);
+                  EnergyBreakdown* breakdown = nullptr, EvaluationRecord* record = nullptr);
+
+  // Evaluate(x, gradient, hessian, breakdown, record), given an evaluation at base.x with its record and,
+  // when a gradient or Hessian is wanted here, its gradient and Hessian (`base_gradient`, `base_hessian`;
+  // they may be the same objects as `gradient`, `hessian`, and `record` may be `&base`). Only the terms
+  // of the vertices that moved, and the gradient and Hessian entries they touch, are computed again; the
+  // rest is the base's. Each entry sums the same terms in the same order as Evaluate, so the results are
+  // bit-identical to it. Newton's local steps move a few hundred vertices: their trials cost a fraction
+  // of a full evaluation. Runs Evaluate when more than a third of the vertices moved, or when the base
+  // cannot serve (another design or lagged friction, or no gradient where one is wanted).
+  double EvaluateFrom(const EvaluationRecord& base, const Eigen::VectorXd* base_gradient,
+                      const Eigen::SparseMatrix<double>* base_hessian, const Positions& x, Eigen::VectorXd* gradient,
+                      Eigen::SparseMatrix<double>* hessian, EnergyBreakdown* breakdown = nullptr,
+                      EvaluationRecord* record = nullptr);
 
   // Upper triangle (free dofs, column-major) of the Hessian's sparsity; values are zero.
   const Eigen::SparseMatrix<double>& hessian_pattern() const { return pattern_; }
@@ -133,7 +159,8 @@ class GarmentSystem {
   Eigen::VectorXd VertexPhi(const Positions& x, Positions* grad = nullptr);
 
   // Unilateral contact only (otherwise returns 0 and leaves `trial` alone). Corrects a line-search trial
-  // `trial` of a step from `x_from` (phi_from and grad_from from VertexPhi there) where the Newton
+  // `trial` of a step from `x_from` (phi_from and grad_from from VertexPhi there, or from the record of an
+  // evaluation there with a gradient) where the Newton
   // model's linear view of the skin fails, moving fully free vertices along the field gradient (a few
   // Newton iterations on Phi):
   //  - a vertex off the body at the start (phi_from >= 0) has no contact stiffness in the Hessian, so the
@@ -182,12 +209,23 @@ class GarmentSystem {
   Eigen::SparseMatrix<double> pattern_;
   std::vector<NeighborCache> caches_;
   std::vector<FrictionVertex> friction_;  // per vertex, lagged (empty: no friction yet)
-  std::vector<double> face_energy_, vertex_energy_;
-  // Phi and grad Phi per vertex from the last evaluation with a gradient, and the positions they are
-  // for: VertexPhi at a state Newton has just evaluated reuses them instead of sampling the field again.
-  Eigen::VectorXd evaluated_phi_;
-  Positions evaluated_phi_grad_, evaluated_positions_;
+  EvaluationRecord scratch_;  // the per-term energies of an evaluation the caller keeps no record of
   double force_scale_ = 1, mean_edge_ = 0, stiffness_scale_ = 1;
+  // Changes with the design and the lagged friction: records of another version cannot serve.
+  int version_ = 0;
+
+  // One face's or vertex's terms at x and, on request, their summed gradient and Hessian; the same
+  // code serves Evaluate and EvaluateFrom so that both sum the same numbers.
+  struct FaceTerms;
+  struct VertexTerms;
+  void EvaluateFace(int f, const Positions& x, bool want_grad, bool want_hess, FaceTerms* out) const;
+  void EvaluateVertex(int v, const Positions& x, bool want_grad, bool want_hess, VertexTerms* out);
+  double SumEnergies(const EvaluationRecord& r, EnergyBreakdown* breakdown) const;
+  // EvaluateFrom's bookkeeping: each face's colour, the faces around each vertex, and marks.
+  std::vector<int> face_color_;
+  std::vector<int> vertex_faces_begin_, vertex_faces_;
+  std::vector<int> face_mark_, vertex_mark_, entry_mark_;
+  int mark_ = 0;
 };
 
 }  // namespace kgd

@@ -193,38 +193,174 @@ std::unique_ptr<GarmentSystem> PinnedUnilateralSleeve(SceneSpec* s) {
 // The line search's projection: a vertex that a trial step carries from off the body into it goes back
 // to just inside the surface; vertices in contact that the step leaves at the depth the linear model
 // predicts, clamped vertices, and the other contact models are left alone.
-// VertexPhi at the positions of the last evaluation with a gradient returns that evaluation's samples
-// (the line search asks for them at every step's start); they must be what sampling afresh gives, and a
-// different state must be sampled afresh.
-TEST(GarmentSystem, VertexPhiAfterAnEvaluationMatchesFreshSampling) {
+// The record of an evaluation with a gradient holds Phi and grad Phi per vertex (the line search's
+// contact projection starts from them): they must be what sampling the field afresh gives.
+TEST(GarmentSystem, RecordedPhiMatchesFreshSampling) {
   Fixture a = MakeSystem(ContactModel::kUnilateral, Relaxation::kExact);
   Fixture b = MakeSystem(ContactModel::kUnilateral, Relaxation::kExact);
   Eigen::VectorXd g;
-  a.sys->Evaluate(a.x, &g, nullptr);
-  Positions grad_a, grad_b;
-  const Eigen::VectorXd phi_a = a.sys->VertexPhi(a.x, &grad_a);
-  const Eigen::VectorXd phi_b = b.sys->VertexPhi(b.x, &grad_b);  // never evaluated: sampled afresh
-  ASSERT_EQ(phi_a.size(), phi_b.size());
+  EvaluationRecord record;
+  a.sys->Evaluate(a.x, &g, nullptr, nullptr, &record);
+  Positions grad_b;
+  const Eigen::VectorXd phi_b = b.sys->VertexPhi(b.x, &grad_b);
+  ASSERT_EQ(record.phi.size(), phi_b.size());
   int supported = 0;
-  for (Eigen::Index v = 0; v < phi_a.size(); ++v) {
-    ASSERT_EQ(std::isnan(phi_a[v]), std::isnan(phi_b[v])) << "vertex " << v;
-    if (std::isnan(phi_a[v])) continue;
+  for (Eigen::Index v = 0; v < phi_b.size(); ++v) {
+    ASSERT_EQ(std::isnan(record.phi[v]), std::isnan(phi_b[v])) << "vertex " << v;
+    if (std::isnan(phi_b[v])) continue;
     ++supported;
-    EXPECT_NEAR(phi_a[v], phi_b[v], 1e-15) << "vertex " << v;
-    EXPECT_LT((grad_a.row(v) - grad_b.row(v)).norm(), 1e-12) << "vertex " << v;
+    EXPECT_EQ(record.phi[v], phi_b[v]) << "vertex " << v;
+    EXPECT_EQ(record.phi_grad.row(v), grad_b.row(v)) << "vertex " << v;
   }
-  EXPECT_GT(supported, phi_a.size() / 2);
-  // Moved by 1 mm along x: not the evaluated state, so sampled there.
-  Positions moved = a.x;
-  moved.col(0).array() += 1e-3;
-  Positions grad_moved, grad_fresh;
-  const Eigen::VectorXd phi_moved = a.sys->VertexPhi(moved, &grad_moved);
-  const Eigen::VectorXd phi_fresh = b.sys->VertexPhi(moved, &grad_fresh);
-  for (Eigen::Index v = 0; v < phi_moved.size(); ++v) {
-    if (std::isnan(phi_fresh[v])) continue;
-    EXPECT_NEAR(phi_moved[v], phi_fresh[v], 1e-15) << "vertex " << v;
+  EXPECT_GT(supported, phi_b.size() / 2);
+  // Without a gradient no Phi is recorded.
+  a.sys->Evaluate(a.x, nullptr, nullptr, nullptr, &record);
+  EXPECT_EQ(record.phi.size(), 0);
+}
+
+// Exact equality of two evaluations' results, NaN-aware for Phi.
+void ExpectSameEvaluation(const EvaluationRecord& a, const EvaluationRecord& b) {
+  EXPECT_EQ(a.x, b.x);
+  EXPECT_EQ(a.membrane_J, b.membrane_J);
+  EXPECT_EQ(a.attachment_J, b.attachment_J);
+  EXPECT_EQ(a.fold_barrier_J, b.fold_barrier_J);
+  EXPECT_EQ(a.contact_J, b.contact_J);
+  EXPECT_EQ(a.friction_J, b.friction_J);
+  ASSERT_EQ(a.phi.size(), b.phi.size());
+  for (Eigen::Index v = 0; v < a.phi.size(); ++v) {
+    EXPECT_TRUE(a.phi[v] == b.phi[v] || (std::isnan(a.phi[v]) && std::isnan(b.phi[v]))) << "vertex " << v;
+    EXPECT_EQ(a.phi_grad.row(v), b.phi_grad.row(v)) << "vertex " << v;
   }
-  EXPECT_GT((phi_moved - phi_a).cwiseAbs().maxCoeff(), 1e-5);
+}
+
+void ExpectSameBreakdown(const EnergyBreakdown& a, const EnergyBreakdown& b) {
+  EXPECT_EQ(a.membrane_J, b.membrane_J);
+  EXPECT_EQ(a.contact_J, b.contact_J);
+  EXPECT_EQ(a.attachment_J, b.attachment_J);
+  EXPECT_EQ(a.fold_barrier_J, b.fold_barrier_J);
+  EXPECT_EQ(a.friction_J, b.friction_J);
+}
+
+// EvaluateFrom re-evaluates only what the moved vertices touch, yet must give exactly what a full
+// evaluation gives: energy, breakdown, gradient, Hessian and record, with every term on (contact,
+// friction, attachments, fold barrier, a clamp, mixed design, regimes mixed), with the outputs in place
+// of the base's, energy-only, and after the design or the lagged friction changed under the record.
+TEST(GarmentSystem, EvaluateFromMatchesAFullEvaluationBitForBit) {
+  SceneSpec s = SmallSleeve(ContactModel::kUnilateral);
+  s.effects.fold_barrier = true;
+  s.effects.friction = 0.4;
+  for (size_t f = 0; f < s.design.size(); f += 3) s.design[f] = kReinforced;
+  PinFirstTwoVertices(&s, {true, false, true});
+  auto model = BuildGarmentModel(s);
+  ASSERT_TRUE(model.ok()) << model.message();
+  ASSERT_TRUE(model.value().effects.attachments && !model.value().attachments.faces.empty());
+  GarmentSystem sys(std::move(model).value(), s.initial);
+  sys.LagFriction(s.initial - 1e-3 * OutwardNormals(sys, s));
+  std::mt19937 rng(11);
+  std::normal_distribution<double> n(0, 1e-3);
+  Positions x = s.initial;
+  for (Eigen::Index v = 0; v < x.rows(); ++v)
+    for (int k = 0; k < 3; ++k) x(v, k) += n(rng);
+  sys.ApplyClamps(&x);
+
+  Eigen::VectorXd g0;
+  Eigen::SparseMatrix<double> H0 = sys.hessian_pattern();
+  EvaluationRecord r0;
+  sys.Evaluate(x, &g0, &H0, nullptr, &r0);
+  EXPECT_GT(r0.friction_J.size(), 0u);
+  // Move a few vertices, among them a clamped one (0) and one in an attachment band.
+  const int attached = sys.model().faces(sys.model().attachments.faces[0], 1);
+  Positions y = x;
+  for (int v : {0, 1, 17, 40, attached}) y.row(v) += Eigen::RowVector3d(n(rng), n(rng), n(rng));
+  sys.ApplyClamps(&y);
+  ASSERT_LT(3 * 5, sys.num_vertices());
+
+  Eigen::VectorXd g_full;
+  Eigen::SparseMatrix<double> H_full = sys.hessian_pattern();
+  EvaluationRecord r_full;
+  EnergyBreakdown b_full;
+  const double E_full = sys.Evaluate(y, &g_full, &H_full, &b_full, &r_full);
+  ASSERT_TRUE(std::isfinite(E_full));
+  auto expect_full = [&](double E, const Eigen::VectorXd& g, const Eigen::SparseMatrix<double>& H,
+                         const EnergyBreakdown& b, const EvaluationRecord& r) {
+    EXPECT_EQ(E, E_full);
+    ExpectSameBreakdown(b, b_full);
+    EXPECT_EQ(g, g_full);
+    EXPECT_TRUE(std::equal(H.valuePtr(), H.valuePtr() + H.nonZeros(), H_full.valuePtr()));
+    ExpectSameEvaluation(r, r_full);
+  };
+  {
+    SCOPED_TRACE("into new objects");
+    Eigen::VectorXd g;
+    Eigen::SparseMatrix<double> H = sys.hessian_pattern();
+    EvaluationRecord r;
+    EnergyBreakdown b;
+    const double E = sys.EvaluateFrom(r0, &g0, &H0, y, &g, &H, &b, &r);
+    expect_full(E, g, H, b, r);
+  }
+  {
+    SCOPED_TRACE("gradient only, and energy only");
+    Eigen::VectorXd g, g_ref;
+    EXPECT_EQ(sys.EvaluateFrom(r0, &g0, nullptr, y, &g, nullptr), E_full);
+    sys.Evaluate(y, &g_ref, nullptr);
+    EXPECT_EQ(g, g_ref);
+    EnergyBreakdown b;
+    EXPECT_EQ(sys.EvaluateFrom(r0, nullptr, nullptr, y, nullptr, nullptr, &b), E_full);
+    ExpectSameBreakdown(b, b_full);
+  }
+  {
+    SCOPED_TRACE("in place of the base");
+    Eigen::VectorXd g = g0;
+    Eigen::SparseMatrix<double> H = H0;
+    EvaluationRecord r = r0;
+    EnergyBreakdown b;
+    const double E = sys.EvaluateFrom(r, &g, &H, y, &g, &H, &b, &r);
+    expect_full(E, g, H, b, r);
+  }
+  {
+    SCOPED_TRACE("the base is used: a face the move does not touch keeps the base's energy");
+    EvaluationRecord r = r0;
+    int far = -1;
+    for (int f = 0; f < sys.num_faces() && far < 0; ++f) {
+      bool touched = false;
+      for (int k = 0; k < 3; ++k) touched |= (y.row(sys.model().faces(f, k)) != x.row(sys.model().faces(f, k)));
+      for (int k = 0; k < 3; ++k)
+        for (int v : {0, 1, 17, 40, attached}) touched |= (sys.model().faces(f, k) == v);
+      if (!touched) far = f;
+    }
+    ASSERT_GE(far, 0);
+    r.membrane_J[far] += 1.0;
+    EXPECT_NEAR(sys.EvaluateFrom(r, nullptr, nullptr, y, nullptr, nullptr), E_full + 1.0, 1e-12);
+  }
+  {
+    SCOPED_TRACE("many moved: a full evaluation");
+    Positions z = x;
+    z.array() += 1e-4;
+    sys.ApplyClamps(&z);
+    Eigen::VectorXd g, g_ref;
+    EvaluationRecord r = r0;
+    r.membrane_J[0] += 1.0;  // would show if the base were used
+    EXPECT_EQ(sys.EvaluateFrom(r, &g0, nullptr, z, &g, nullptr), sys.Evaluate(z, &g_ref, nullptr));
+    EXPECT_EQ(g, g_ref);
+  }
+  {
+    SCOPED_TRACE("the design changed under the record");
+    std::vector<uint8_t> design = sys.model().design;
+    for (size_t f = 0; f < design.size(); f += 2) design[f] ^= 1;
+    sys.SetDesign(design);
+    Eigen::VectorXd g, g_ref;
+    EXPECT_EQ(sys.EvaluateFrom(r0, &g0, nullptr, y, &g, nullptr), sys.Evaluate(y, &g_ref, nullptr));
+    EXPECT_EQ(g, g_ref);
+  }
+  {
+    SCOPED_TRACE("the lagged friction changed under the record");
+    EvaluationRecord r;
+    sys.Evaluate(x, &g0, &H0, nullptr, &r);
+    sys.LagFriction(s.initial - 2e-3 * OutwardNormals(sys, s));
+    Eigen::VectorXd g, g_ref;
+    EXPECT_EQ(sys.EvaluateFrom(r, &g0, nullptr, y, &g, nullptr), sys.Evaluate(y, &g_ref, nullptr));
+    EXPECT_EQ(g, g_ref);
+  }
 }
 
 TEST(GarmentSystem, ProjectCrossingsOntoBodyMovesOnlyTheVerticesThatCrossed) {

@@ -146,6 +146,9 @@ struct Simulator::Newton {
   int solves_since_probe = 0;
   Eigen::SparseMatrix<double> H;
   Eigen::SparseMatrix<double> H_trial;  // the Hessian at a line search's first trial (see SolveNewton)
+  // What the evaluations at the current state and at the first trial leave for evaluations near them
+  // (GarmentSystem::EvaluateFrom): a local step's trials re-evaluate only the region it moved.
+  EvaluationRecord record, record_trial;
   std::vector<int> vertex_of;           // each free coordinate's vertex (for LocalStep)
 };
 
@@ -188,7 +191,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   sys.ApplyClampsSmoothly(x);
   Eigen::VectorXd g_full;
   auto t = Clock::now();
-  double E = sys.Evaluate(*x, &g_full, &nt.H, &rep.energies);
+  double E = sys.Evaluate(*x, &g_full, &nt.H, &rep.energies, &nt.record);
   rep.assembly_s += Seconds(t, Clock::now());
   ++rep.energy_evaluations;
   if (!std::isfinite(E)) {
@@ -351,7 +354,14 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       AddFree(p, 1.0, free_index, *x, &trial);
       trial -= *x;
       alpha = sys.MaxFoldSafeStep(*x, trial);
-      if (project_crossings && phi_from.size() == 0) phi_from = sys.VertexPhi(*x, &grad_from);
+      if (project_crossings && phi_from.size() == 0) {
+        if (nt.record.phi.size() > 0) {
+          phi_from = nt.record.phi;
+          grad_from = nt.record.phi_grad;
+        } else {
+          phi_from = sys.VertexPhi(*x, &grad_from);
+        }
+      }
       for (int ls = 0; ls < 40; ++ls, alpha *= 0.5) {
         AddFree(p, alpha, free_index, *x, &trial);
         if (project_crossings) sys.ProjectCrossingsOntoBody(phi_from, grad_from, *x, &trial);
@@ -361,10 +371,11 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
         trial_derivatives = ls == 0;
         if (trial_derivatives) {
           const auto ta = Clock::now();
-          E_new = sys.Evaluate(trial, &g_trial_full, &nt.H_trial, &trial_energies);
+          E_new = sys.EvaluateFrom(nt.record, &g_full, &nt.H, trial, &g_trial_full, &nt.H_trial, &trial_energies,
+                                   &nt.record_trial);
           derivatives_s += Seconds(ta, Clock::now());
         } else {
-          E_new = sys.Evaluate(trial, nullptr, nullptr);
+          E_new = sys.EvaluateFrom(nt.record, nullptr, nullptr, trial, nullptr, nullptr);
         }
         ++rep.energy_evaluations;
         if (E_new <= E + 1e-4 * alpha * slope) { accepted = true; break; }
@@ -412,10 +423,11 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       E = E_new;
       g_full.swap(g_trial_full);
       nt.H.swap(nt.H_trial);
+      std::swap(nt.record, nt.record_trial);
       rep.energies = trial_energies;
     } else {
       t = Clock::now();
-      E = sys.Evaluate(*x, &g_full, &nt.H, &rep.energies);
+      E = sys.EvaluateFrom(nt.record, &g_full, &nt.H, *x, &g_full, &nt.H, &rep.energies, &nt.record);
       rep.assembly_s += Seconds(t, Clock::now());
       ++rep.energy_evaluations;
     }

@@ -8,8 +8,9 @@
 //    body, free translations) and carries over to warm re-solves, and (optional,
 //    SolverSettings::reuse_factorization) reuse of the previous factorization as a preconditioner for
 //    conjugate gradients when the Hessian has changed little; (SolverSettings::local_steps) local
-//    steps where the residual has gathered in a small region; with unilateral contact the line search
-//    puts vertices that a trial step carries into the body back on its surface.
+//    steps where the residual has gathered in a small region (their trials re-evaluate only the region:
+//    GarmentSystem::EvaluateFrom, bit-identical to a full evaluation); with unilateral contact the line
+//    search puts vertices that a trial step carries into the body back on its surface.
 //  - kLbfgs: L-BFGS with a strong Wolfe line search, the paper's method, for comparison.
 //
 // Convergence (scale-aware): || dE/dx over free coordinates ||_2 <= tolerance_N, with
