@@ -35,6 +35,19 @@ std::vector<std::vector<int>> VertexNeighbors(const Faces& faces, int num_vertic
   return nbrs;
 }
 
+VertexFaceIncidence VertexFaces(const Faces& faces, int num_vertices) {
+  VertexFaceIncidence r;
+  r.begin.assign(num_vertices + 1, 0);
+  for (Eigen::Index f = 0; f < faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) ++r.begin[faces(f, k) + 1];
+  for (int v = 0; v < num_vertices; ++v) r.begin[v + 1] += r.begin[v];
+  r.face.resize(r.begin[num_vertices]);
+  std::vector<int> next(r.begin.begin(), r.begin.end() - 1);
+  for (Eigen::Index f = 0; f < faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) r.face[next[faces(f, k)]++] = static_cast<int>(f);
+  return r;
+}
+
 FacePieces EdgeConnectedPieces(const Faces& faces) {
   const int nf = static_cast<int>(faces.rows());
   std::vector<int> parent(nf);

@@ -13,6 +13,14 @@ namespace kgd {
 // For every vertex, its neighbours along mesh edges (sorted, each once).
 std::vector<std::vector<int>> VertexNeighbors(const Faces& faces, int num_vertices);
 
+// The faces around each vertex, compressed: those of v are face[begin[v]] .. face[begin[v + 1] - 1], in
+// increasing order (a face that names v twice is listed twice).
+struct VertexFaceIncidence {
+  std::vector<int> begin;  // num_vertices + 1 entries
+  std::vector<int> face;
+};
+VertexFaceIncidence VertexFaces(const Faces& faces, int num_vertices);
+
 // Edge-connected pieces: `piece[f]` in [0, count) for every face; pieces are numbered by their
 // smallest face index.
 struct FacePieces {

@@ -86,5 +86,21 @@ TEST(Topology, VertexNeighborsAreUnique) {
   for (const auto& list : n) EXPECT_EQ(list.size(), 3u);
 }
 
+TEST(Topology, VertexFacesListEachVertexsFacesInOrder) {
+  const Faces t = Tetrahedron();
+  // A fifth vertex that no face names has an empty list.
+  const VertexFaceIncidence inc = VertexFaces(t, 5);
+  ASSERT_EQ(inc.begin.size(), 6u);
+  EXPECT_EQ(inc.face.size(), 12u);
+  for (int v = 0; v < 4; ++v) {
+    std::vector<int> expected;
+    for (int f = 0; f < t.rows(); ++f)
+      if (t(f, 0) == v || t(f, 1) == v || t(f, 2) == v) expected.push_back(f);
+    EXPECT_EQ(std::vector<int>(inc.face.begin() + inc.begin[v], inc.face.begin() + inc.begin[v + 1]), expected)
+        << "vertex " << v;
+  }
+  EXPECT_EQ(inc.begin[4], inc.begin[5]);
+}
+
 }  // namespace
 }  // namespace kgd

@@ -143,16 +143,7 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
     }
     face_color_ = std::move(color_of);
   }
-  vertex_faces_begin_.assign(nv + 1, 0);
-  for (int f = 0; f < nf; ++f)
-    for (int k = 0; k < 3; ++k) ++vertex_faces_begin_[model_.faces(f, k) + 1];
-  for (int v = 0; v < nv; ++v) vertex_faces_begin_[v + 1] += vertex_faces_begin_[v];
-  vertex_faces_.resize(vertex_faces_begin_[nv]);
-  {
-    std::vector<int> fill(vertex_faces_begin_.begin(), vertex_faces_begin_.end() - 1);
-    for (int f = 0; f < nf; ++f)
-      for (int k = 0; k < 3; ++k) vertex_faces_[fill[model_.faces(f, k)]++] = f;
-  }
+  vertex_faces_ = VertexFaces(model_.faces, nv);
 
   // Sparsity: every face couples its three vertices; vertex blocks cover contact.
   std::vector<Eigen::Triplet<double>> trips;
@@ -501,8 +492,8 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
   // The faces whose terms change: those around a moved vertex.
   std::vector<int> faces;
   for (int v : moved)
-    for (int k = vertex_faces_begin_[v]; k < vertex_faces_begin_[v + 1]; ++k) {
-      const int f = vertex_faces_[k];
+    for (int k = vertex_faces_.begin[v]; k < vertex_faces_.begin[v + 1]; ++k) {
+      const int f = vertex_faces_.face[k];
       if (face_mark_[f] != changed) {
         face_mark_[f] = changed;
         faces.push_back(f);
@@ -558,8 +549,8 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
     // Every face that adds to those entries: the faces around their vertices, by colour.
     std::vector<std::vector<int>> by_color(colors_.size());
     for (int v : vertices)
-      for (int k = vertex_faces_begin_[v]; k < vertex_faces_begin_[v + 1]; ++k) {
-        const int f = vertex_faces_[k];
+      for (int k = vertex_faces_.begin[v]; k < vertex_faces_.begin[v + 1]; ++k) {
+        const int f = vertex_faces_.face[k];
         if (face_mark_[f] == changed) continue;
         if (face_mark_[f] != near) {
           face_mark_[f] = near;

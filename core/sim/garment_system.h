@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/body/body_field.h"
+#include "core/mesh/topology.h"
 #include "core/mesh/trimesh.h"
 #include "core/sim/attachment.h"
 #include "core/sim/contact.h"
@@ -136,8 +137,8 @@ class GarmentSystem {
   // they may be the same objects as `gradient`, `hessian`, and `record` may be `&base`). Only the terms
   // of the vertices that moved, and the gradient and Hessian entries they touch, are computed again; the
   // rest is the base's. Each entry sums the same terms in the same order as Evaluate, so the results are
-  // bit-identical to it. Newton's local steps move a few hundred vertices: their trials cost a fraction
-  // of a full evaluation. Runs Evaluate when more than a third of the vertices moved, or when the base
+  // bit-identical to it. Newton's local steps move a tenth to a third of the vertices: their trials
+  // cost a fraction of a full evaluation. Runs Evaluate when more than a third of the vertices moved, or when the base
   // cannot serve (another design or lagged friction, or no gradient where one is wanted).
   double EvaluateFrom(const EvaluationRecord& base, const Eigen::VectorXd* base_gradient,
                       const Eigen::SparseMatrix<double>* base_hessian, const Positions& x, Eigen::VectorXd* gradient,
@@ -160,9 +161,8 @@ class GarmentSystem {
 
   // Unilateral contact only (otherwise returns 0 and leaves `trial` alone). Corrects a line-search trial
   // `trial` of a step from `x_from` (phi_from and grad_from from VertexPhi there, or from the record of an
-  // evaluation there with a gradient) where the Newton
-  // model's linear view of the skin fails, moving fully free vertices along the field gradient (a few
-  // Newton iterations on Phi):
+  // evaluation there with a gradient) where the Newton model's linear view of the skin fails, moving
+  // fully free vertices along the field gradient (a few Newton iterations on Phi):
   //  - a vertex off the body at the start (phi_from >= 0) has no contact stiffness in the Hessian, so the
   //    step may carry it deep into the body and the penalty then cuts the whole step to a sliver (a wasted
   //    factorization): if it ends inside, it goes back to just inside the surface
@@ -223,7 +223,7 @@ class GarmentSystem {
   double SumEnergies(const EvaluationRecord& r, EnergyBreakdown* breakdown) const;
   // EvaluateFrom's bookkeeping: each face's colour, the faces around each vertex, and marks.
   std::vector<int> face_color_;
-  std::vector<int> vertex_faces_begin_, vertex_faces_;
+  VertexFaceIncidence vertex_faces_;
   std::vector<int> face_mark_, vertex_mark_, entry_mark_;
   int mark_ = 0;
 };
