@@ -138,8 +138,9 @@ class GarmentSystem {
   // of the vertices that moved, and the gradient and Hessian entries they touch, are computed again; the
   // rest is the base's. Each entry sums the same terms in the same order as Evaluate, so the results are
   // bit-identical to it. Newton's local steps move a tenth to a third of the vertices: their trials
-  // cost a fraction of a full evaluation. Runs Evaluate when more than a third of the vertices moved, or when the base
-  // cannot serve (another design or lagged friction, or no gradient where one is wanted).
+  // cost a fraction of a full evaluation. Runs Evaluate when more than a third of the vertices moved,
+  // or when the base cannot serve (another design or lagged friction, or no gradient where one is
+  // wanted).
   double EvaluateFrom(const EvaluationRecord& base, const Eigen::VectorXd* base_gradient,
                       const Eigen::SparseMatrix<double>* base_hessian, const Positions& x, Eigen::VectorXd* gradient,
                       Eigen::SparseMatrix<double>* hessian, EnergyBreakdown* breakdown = nullptr,

@@ -223,8 +223,6 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   bool skip_pcg = false;
   const bool project_crossings =
       settings.project_contact_crossings && sys.model().effects.contact == ContactModel::kUnilateral;
-  Eigen::VectorXd phi_from;  // Phi at *x, taken at the first line search from it
-  Positions grad_from;
   Positions trial;
   Eigen::VectorXd g_trial_full;
   // The last line-search trial's energy; with trial_derivatives, g_trial_full, nt.H_trial and
@@ -354,17 +352,10 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       AddFree(p, 1.0, free_index, *x, &trial);
       trial -= *x;
       alpha = sys.MaxFoldSafeStep(*x, trial);
-      if (project_crossings && phi_from.size() == 0) {
-        if (nt.record.phi.size() > 0) {
-          phi_from = nt.record.phi;
-          grad_from = nt.record.phi_grad;
-        } else {
-          phi_from = sys.VertexPhi(*x, &grad_from);
-        }
-      }
       for (int ls = 0; ls < 40; ++ls, alpha *= 0.5) {
         AddFree(p, alpha, free_index, *x, &trial);
-        if (project_crossings) sys.ProjectCrossingsOntoBody(phi_from, grad_from, *x, &trial);
+        // nt.record is the evaluation at *x, with a gradient: it holds Phi and grad Phi there.
+        if (project_crossings) sys.ProjectCrossingsOntoBody(nt.record.phi, nt.record.phi_grad, *x, &trial);
         // The first trial is nearly always taken (the fold-safe length, or a full step), and the next
         // iteration needs the gradient and Hessian there: evaluating them with the energy saves an
         // energy-only pass per iteration and costs one Hessian when the trial is refused.
@@ -417,7 +408,6 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       return rep;
     }
     x->swap(trial);
-    phi_from.resize(0);
     const double E_before = E;
     if (trial_derivatives) {
       E = E_new;
