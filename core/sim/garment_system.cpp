@@ -208,7 +208,6 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
 
 void GarmentSystem::SetDesign(const std::vector<uint8_t>& design) {
   model_.design = design;
-  ++version_;
 }
 
 void GarmentSystem::ApplyClamps(Positions* x) const {
@@ -442,7 +441,8 @@ double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Ei
   }
   if (record) {
     r.x = x;
-    r.version = version_;
+    r.design = model_.design;
+    r.friction_version = friction_version_;
   }
   return SumEnergies(r, breakdown);
 }
@@ -454,16 +454,21 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
   const int nv = num_vertices(), nf = num_faces();
   const bool want_grad = gradient != nullptr, want_hess = hessian != nullptr;
   const bool contact = model_.effects.contact != ContactModel::kNone;
-  const bool usable = base.version == version_ && base.x.rows() == nv && static_cast<int>(base.membrane_J.size()) == nf &&
+  const bool usable = base.friction_version == friction_version_ && base.x.rows() == nv &&
+                      static_cast<int>(base.membrane_J.size()) == nf && base.design.size() == model_.design.size() &&
                       (!want_grad || (base_gradient && base_gradient->size() == 3 * nv &&
                                       (!contact || base.phi.size() == nv))) &&
                       (!want_hess || (want_grad && base_hessian && base_hessian->nonZeros() == pattern_.nonZeros() &&
                                       hessian->nonZeros() == pattern_.nonZeros()));
-  std::vector<int> moved;
-  if (usable)
+  std::vector<int> moved, redesigned;
+  if (usable) {
     for (int v = 0; v < nv; ++v)
       if (x(v, 0) != base.x(v, 0) || x(v, 1) != base.x(v, 1) || x(v, 2) != base.x(v, 2)) moved.push_back(v);
-  if (!usable || 3 * moved.size() > static_cast<size_t>(nv)) return Evaluate(x, gradient, hessian, breakdown, record);
+    for (int f = 0; f < nf; ++f)
+      if (base.design[f] != model_.design[f]) redesigned.push_back(f);
+  }
+  if (!usable || 3 * (moved.size() + 3 * redesigned.size()) > static_cast<size_t>(nv))
+    return Evaluate(x, gradient, hessian, breakdown, record);
 
   if (mark_ > std::numeric_limits<int>::max() - 4) {
     std::fill(face_mark_.begin(), face_mark_.end(), 0);
@@ -489,8 +494,13 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
     r.phi.resize(0);
     r.phi_grad.resize(0, 3);
   }
-  // The faces whose terms change: those around a moved vertex.
+  // The faces whose terms change: those of another design, and those around a moved vertex. (The
+  // vertices' own terms do not depend on the design.)
   std::vector<int> faces;
+  for (int f : redesigned) {
+    face_mark_[f] = changed;
+    faces.push_back(f);
+  }
   for (int v : moved)
     for (int k = vertex_faces_.begin[v]; k < vertex_faces_.begin[v + 1]; ++k) {
       const int f = vertex_faces_.face[k];
@@ -591,7 +601,8 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
   }
   if (record) {
     r.x = x;
-    r.version = version_;
+    r.design = model_.design;
+    r.friction_version = friction_version_;
   }
   return SumEnergies(r, breakdown);
 }
@@ -680,7 +691,7 @@ void GarmentSystem::LagFriction(const Positions& x) {
     lagged[v] = ::kgd::LagFriction(anchor.row(v).transpose(), g, g.norm(), model_.effects.friction);
   }
   friction_ = std::move(lagged);
-  ++version_;
+  ++friction_version_;
 }
 
 }  // namespace kgd

@@ -93,7 +93,8 @@ struct EvaluationRecord {
   // Contact: Phi (NaN where unsupported) and grad Phi per vertex; empty when no gradient was evaluated.
   Eigen::VectorXd phi;
   Positions phi_grad;
-  int version = -1;  // the system's design and friction version it was made with
+  std::vector<uint8_t> design;  // the system's design it was made with (per face)
+  int friction_version = -1;     // the system's lagged friction it was made with
 };
 
 class GarmentSystem {
@@ -136,11 +137,12 @@ class GarmentSystem {
   // when a gradient or Hessian is wanted here, its gradient and Hessian (`base_gradient`, `base_hessian`;
   // they may be the same objects as `gradient`, `hessian`, and `record` may be `&base`). Only the terms
   // of the vertices that moved, and the gradient and Hessian entries they touch, are computed again; the
-  // rest is the base's. Each entry sums the same terms in the same order as Evaluate, so the results are
-  // bit-identical to it. Newton's local steps move a tenth to a third of the vertices: their trials
-  // cost a fraction of a full evaluation. Runs Evaluate when more than a third of the vertices moved,
-  // or when the base cannot serve (another design or lagged friction, or no gradient where one is
-  // wanted).
+  // rest is the base's. Faces whose design changed since the base count as touched too. Each entry sums
+  // the same terms in the same order as Evaluate, so the results are bit-identical to it. Newton's local
+  // steps move a tenth to a third of the vertices, and a BESO re-solve starts where the last one ended
+  // with a few per cent of the faces changed: these evaluations cost a fraction of a full one. Runs
+  // Evaluate when more than a third of the vertices moved or lie on changed faces, or when the base
+  // cannot serve (other lagged friction, or no gradient where one is wanted).
   double EvaluateFrom(const EvaluationRecord& base, const Eigen::VectorXd* base_gradient,
                       const Eigen::SparseMatrix<double>* base_hessian, const Positions& x, Eigen::VectorXd* gradient,
                       Eigen::SparseMatrix<double>* hessian, EnergyBreakdown* breakdown = nullptr,
@@ -212,8 +214,8 @@ class GarmentSystem {
   std::vector<FrictionVertex> friction_;  // per vertex, lagged (empty: no friction yet)
   EvaluationRecord scratch_;  // the per-term energies of an evaluation the caller keeps no record of
   double force_scale_ = 1, mean_edge_ = 0, stiffness_scale_ = 1;
-  // Changes with the design and the lagged friction: records of another version cannot serve.
-  int version_ = 0;
+  // Changes with the lagged friction: records made before cannot serve.
+  int friction_version_ = 0;
 
   // One face's or vertex's terms at x and, on request, their summed gradient and Hessian; the same
   // code serves Evaluate and EvaluateFrom so that both sum the same numbers.

@@ -244,7 +244,8 @@ void ExpectSameBreakdown(const EnergyBreakdown& a, const EnergyBreakdown& b) {
 // EvaluateFrom re-evaluates only what the moved vertices touch, yet must give exactly what a full
 // evaluation gives: energy, breakdown, gradient, Hessian and record, with every term on (contact,
 // friction, attachments, fold barrier, a clamp, mixed design, regimes mixed), with the outputs in place
-// of the base's, energy-only, and after the design or the lagged friction changed under the record.
+// of the base's, energy-only, after a few faces' design changed (with and without moved vertices), and
+// after much of the design or the lagged friction changed under the record.
 TEST(GarmentSystem, EvaluateFromMatchesAFullEvaluationBitForBit) {
   SceneSpec s = SmallSleeve(ContactModel::kUnilateral);
   s.effects.fold_barrier = true;
@@ -342,12 +343,45 @@ TEST(GarmentSystem, EvaluateFromMatchesAFullEvaluationBitForBit) {
     EXPECT_EQ(g, g_ref);
   }
   {
-    SCOPED_TRACE("the design changed under the record");
-    std::vector<uint8_t> design = sys.model().design;
+    SCOPED_TRACE("a few faces' design changed under the record (a BESO re-solve's first evaluation)");
+    const std::vector<uint8_t> before = sys.model().design;
+    std::vector<uint8_t> design = before;
+    for (int f : {3, 10, 11, sys.num_faces() / 2}) design[f] ^= 1;
+    sys.SetDesign(design);
+    for (const Positions* at : {&x, &y}) {  // the design alone, and with the moved vertices
+      SCOPED_TRACE(at == &x ? "at the base's positions" : "with vertices moved");
+      Eigen::VectorXd g_ref;
+      Eigen::SparseMatrix<double> H_ref = sys.hessian_pattern();
+      EnergyBreakdown b_ref;
+      EvaluationRecord r_ref;
+      const double E_ref = sys.Evaluate(*at, &g_ref, &H_ref, &b_ref, &r_ref);
+      Eigen::VectorXd g = g0;
+      Eigen::SparseMatrix<double> H = H0;
+      EvaluationRecord r = r0;
+      EnergyBreakdown b;
+      EXPECT_EQ(sys.EvaluateFrom(r, &g, &H, *at, &g, &H, &b, &r), E_ref);
+      ExpectSameBreakdown(b, b_ref);
+      EXPECT_EQ(g, g_ref);
+      EXPECT_TRUE(std::equal(H.valuePtr(), H.valuePtr() + H.nonZeros(), H_ref.valuePtr()));
+      ExpectSameEvaluation(r, r_ref);
+      EXPECT_EQ(r.design, design);
+      EXPECT_EQ(sys.EvaluateFrom(r0, nullptr, nullptr, *at, nullptr, nullptr), E_ref);
+    }
+    // The base is used: a face neither redesigned nor near one keeps the base's energy.
+    EvaluationRecord r = r0;
+    const int far = sys.num_faces() - 1;
+    for (int k = 0; k < 3; ++k)
+      for (int f : {3, 10, 11, sys.num_faces() / 2})
+        for (int l = 0; l < 3; ++l) ASSERT_NE(sys.model().faces(far, k), sys.model().faces(f, l));
+    r.membrane_J[far] += 1.0;
+    EXPECT_NEAR(sys.EvaluateFrom(r, nullptr, nullptr, x, nullptr, nullptr), sys.Evaluate(x, nullptr, nullptr) + 1.0, 1e-12);
+
+    SCOPED_TRACE("half the faces' design changed: a full evaluation");
     for (size_t f = 0; f < design.size(); f += 2) design[f] ^= 1;
     sys.SetDesign(design);
     Eigen::VectorXd g, g_ref;
-    EXPECT_EQ(sys.EvaluateFrom(r0, &g0, nullptr, y, &g, nullptr), sys.Evaluate(y, &g_ref, nullptr));
+    r.membrane_J[0] += 1.0;  // would show if the base were used
+    EXPECT_EQ(sys.EvaluateFrom(r, &g0, nullptr, y, &g, nullptr), sys.Evaluate(y, &g_ref, nullptr));
     EXPECT_EQ(g, g_ref);
   }
   {

@@ -147,8 +147,11 @@ struct Simulator::Newton {
   Eigen::SparseMatrix<double> H;
   Eigen::SparseMatrix<double> H_trial;  // the Hessian at a line search's first trial (see SolveNewton)
   // What the evaluations at the current state and at the first trial leave for evaluations near them
-  // (GarmentSystem::EvaluateFrom): a local step's trials re-evaluate only the region it moved.
+  // (GarmentSystem::EvaluateFrom): a local step's trials re-evaluate only the region it moved, and a
+  // warm re-solve's first evaluation only the faces whose design changed. `gradient` and H are the
+  // evaluation's at record.x, also between solves.
   EvaluationRecord record, record_trial;
+  Eigen::VectorXd gradient;
   std::vector<int> vertex_of;           // each free coordinate's vertex (for LocalStep)
 };
 
@@ -189,9 +192,9 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   rep.tolerance_N = settings.grad_tol * sys.force_scale_N() * std::sqrt(std::max(1.0, n / 3.0));
 
   sys.ApplyClampsSmoothly(x);
-  Eigen::VectorXd g_full;
+  Eigen::VectorXd& g_full = nt.gradient;
   auto t = Clock::now();
-  double E = sys.Evaluate(*x, &g_full, &nt.H, &rep.energies, &nt.record);
+  double E = sys.EvaluateFrom(nt.record, &g_full, &nt.H, *x, &g_full, &nt.H, &rep.energies, &nt.record);
   rep.assembly_s += Seconds(t, Clock::now());
   ++rep.energy_evaluations;
   if (!std::isfinite(E)) {
