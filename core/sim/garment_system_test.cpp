@@ -344,8 +344,7 @@ TEST(GarmentSystem, EvaluateFromMatchesAFullEvaluationBitForBit) {
   }
   {
     SCOPED_TRACE("a few faces' design changed under the record (a BESO re-solve's first evaluation)");
-    const std::vector<uint8_t> before = sys.model().design;
-    std::vector<uint8_t> design = before;
+    std::vector<uint8_t> design = sys.model().design;
     for (int f : {3, 10, 11, sys.num_faces() / 2}) design[f] ^= 1;
     sys.SetDesign(design);
     for (const Positions* at : {&x, &y}) {  // the design alone, and with the moved vertices
