@@ -68,8 +68,11 @@ void PrintHuman(const SceneSpec& scene, const SimulationResult& r) {
   std::printf("scene                 %s (%ld vertices, %ld faces)\n", scene.name.c_str(), (long)r.positions.rows(),
               (long)r.face_density_Pa.size());
   std::printf("status                %s%s%s\n", ToString(s.status), s.message.empty() ? "" : ": ", s.message.c_str());
-  std::printf("total energy          %.9g J  (membrane %.6g, contact %.6g, attachments %.6g, fold barrier %.3g)\n", s.energy_J,
-              s.energies.membrane_J, s.energies.contact_J, s.energies.attachment_J, s.energies.fold_barrier_J);
+  char friction[48] = "";
+  if (scene.effects.friction > 0) std::snprintf(friction, sizeof friction, ", friction %.6g", s.energies.friction_J);
+  std::printf("total energy          %.9g J  (membrane %.6g, contact %.6g, attachments %.6g, fold barrier %.3g%s)\n",
+              s.energy_J, s.energies.membrane_J, s.energies.contact_J, s.energies.attachment_J, s.energies.fold_barrier_J,
+              friction);
   std::printf("reinforced energy     %.6g J over %.6g m^2 (%.1f %% of the garment)\n", r.reinforced_energy_J,
               r.reinforced_area_m2, r.garment_area_m2 > 0 ? 100.0 * r.reinforced_area_m2 / r.garment_area_m2 : 0.0);
   std::printf("reinforced density    %.6g J/m^2\n", r.reinforced_density_J_per_m2);

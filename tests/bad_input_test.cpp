@@ -60,6 +60,16 @@ TEST_F(BadInput, OutOfRangeIndex) {
   ExpectError(R"({"garment": {"rest": "oor.obj"}})", "face 1 refers to vertex 9");
   ExpectError(R"({"garment": {"rest": "good.obj", "design": {"reinforced_faces": [0, 5]}}})",
               "garment.design.reinforced_faces: entry 1 is face 5");
+  // 2^32 + 1 would wrap to face 1 if read as an int.
+  ExpectError(R"({"garment": {"rest": "good.obj", "design": {"reinforced_faces": [0, 4294967297]}}})",
+              "garment.design.reinforced_faces[1]: index 4294967297 is out of range");
+  ExpectError(R"({"garment": {"rest": "good.obj", "design": {"reinforced_faces": [18446744073709551615]}}})",
+              "garment.design.reinforced_faces[0]: index 18446744073709551615 is out of range");
+  // A PLY face whose list length is not a number (found by fuzzing: it was cast to an int).
+  Write("nanlen.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
+                      "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n0.01 0 0\n0 0.01 0\n"
+                      "nan 0 1 2\n");
+  ExpectError(R"({"garment": {"rest": "nanlen.ply"}})", "nanlen.ply: face 0: bad list length");
 }
 
 TEST_F(BadInput, ZeroAreaTriangle) {

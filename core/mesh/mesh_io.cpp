@@ -159,8 +159,10 @@ bool ReadBinary(std::istream& in, PlyType t, double* out) {
 }
 
 Result<TriMesh> ReadPly(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) return Status::Error(path + ": cannot open file");
+  const long file_bytes = static_cast<long>(in.tellg());
+  in.seekg(0);
   std::string line;
   std::getline(in, line);
   if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -183,8 +185,15 @@ Result<TriMesh> ReadPly(const std::string& path) {
       else return Status::Error(Where(path, line_no) + "unsupported PLY format '" + fmt + "'");
     } else if (kw == "element") {
       PlyElement e;
-      ls >> e.name >> e.count;
-      if (!ls || e.count < 0) return Status::Error(Where(path, line_no) + "bad element line '" + line + "'");
+      std::string count, extra;
+      ls >> e.name >> count;
+      if (!ls || !ParseInt(count, &e.count) || e.count < 0 || (ls >> extra))
+        return Status::Error(Where(path, line_no) + "bad element line '" + line + "'");
+      // Every element takes at least a byte: a count beyond the file's size is a corrupt header, and
+      // would otherwise be allocated before the data runs out.
+      if (e.count > file_bytes)
+        return Status::Error(Where(path, line_no) + "element '" + e.name + "' declares " + count +
+                             " entries but the file has only " + std::to_string(file_bytes) + " bytes");
       elements.push_back(e);
     } else if (kw == "property") {
       if (elements.empty()) return Status::Error(Where(path, line_no) + "property before any element");
@@ -256,8 +265,9 @@ Result<TriMesh> ReadPly(const std::string& path) {
           }
           continue;
         }
+        // Written as "not inside" so that NaN fails too; a double outside int's range must not be cast.
         double count_d;
-        if (!read_value(p.count_type, &count_d) || count_d < 0 || count_d > 1e6)
+        if (!read_value(p.count_type, &count_d) || !(count_d >= 0 && count_d <= 1e6) || count_d != std::floor(count_d))
           return Status::Error(path + ": " + e.name + " " + std::to_string(i) + ": bad list length");
         const int count = static_cast<int>(count_d);
         std::vector<int> idx(count);
@@ -265,6 +275,12 @@ Result<TriMesh> ReadPly(const std::string& path) {
           double v;
           if (!read_value(p.type, &v))
             return Status::Error(path + ": " + e.name + " " + std::to_string(i) + ": cannot read list entry");
+          if (!is_face || static_cast<int>(k) != iface) continue;  // another list (texture coordinates, ...)
+          if (!(v >= INT32_MIN && v <= INT32_MAX) || v != std::floor(v)) {
+            std::ostringstream m;
+            m << path << ": face " << i << ": vertex index " << v << " is not an integer";
+            return Status::Error(m.str());
+          }
           idx[c] = static_cast<int>(v);
         }
         if (is_face && static_cast<int>(k) == iface) {

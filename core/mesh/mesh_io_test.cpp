@@ -68,5 +68,37 @@ TEST(MeshIo, ErrorsNameFileAndLine) {
   EXPECT_NE(idx.message().find("idx.txt:5: expected one integer"), std::string::npos) << idx.message();
 }
 
+// Corruptions a fuzzer found: each is an error naming the element, not an allocation of the declared
+// size or a cast of NaN to an index.
+TEST(MeshIo, CorruptPlyCountsAndIndicesAreErrors) {
+  const std::string header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+                             "property double z\nelement face 1\n";
+  const std::string list = "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n";
+  Write(Temp("nanlen.ply"), header + list + "nan 0 1 2\n");
+  EXPECT_NE(ReadMesh(Temp("nanlen.ply")).message().find("face 0: bad list length"), std::string::npos)
+      << ReadMesh(Temp("nanlen.ply")).message();
+  Write(Temp("fraclen.ply"), header + list + "3.5 0 1 2\n");
+  EXPECT_NE(ReadMesh(Temp("fraclen.ply")).message().find("face 0: bad list length"), std::string::npos);
+  Write(Temp("nanidx.ply"), header + list + "3 0 nan 2\n");
+  EXPECT_NE(ReadMesh(Temp("nanidx.ply")).message().find("face 0: vertex index nan is not an integer"),
+            std::string::npos)
+      << ReadMesh(Temp("nanidx.ply")).message();
+  Write(Temp("hugeidx.ply"), header + list + "3 0 1 1e300\n");
+  EXPECT_NE(ReadMesh(Temp("hugeidx.ply")).message().find("face 0: vertex index 1e+300 is not an integer"),
+            std::string::npos);
+  Write(Temp("huge.ply"), "ply\nformat binary_little_endian 1.0\nelement vertex 99999999999\nproperty double x\n"
+                          "property double y\nproperty double z\nend_header\n");
+  EXPECT_NE(ReadMesh(Temp("huge.ply")).message().find("huge.ply:3: element 'vertex' declares 99999999999 entries"),
+            std::string::npos)
+      << ReadMesh(Temp("huge.ply")).message();
+  Write(Temp("count.ply"), "ply\nformat ascii 1.0\nelement vertex 1e5\nend_header\n");
+  EXPECT_NE(ReadMesh(Temp("count.ply")).message().find("count.ply:3: bad element line"), std::string::npos);
+  // Other lists keep whatever entries they hold.
+  Write(Temp("uv.ply"), header + "property list uchar float texcoord\n" + list + "6 0.5 0.5 1 0 0.25 1 3 0 1 2\n");
+  auto uv = ReadMesh(Temp("uv.ply"));
+  ASSERT_TRUE(uv.ok()) << uv.message();
+  EXPECT_EQ(uv->faces.rows(), 1);
+}
+
 }  // namespace
 }  // namespace kgd

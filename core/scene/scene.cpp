@@ -77,7 +77,12 @@ class Reader {
     std::vector<int> out;
     for (size_t i = 0; i < v.size(); ++i) {
       if (!v[i].is_number_integer()) return Fail(key + "[" + std::to_string(i) + "]", "must be an integer");
-      out.push_back(v[i].get<int>());
+      // Read wide: get<int> would wrap 4294967297 to a valid index.
+      const int64_t index = v[i].is_number_unsigned() && v[i].get<uint64_t>() > uint64_t(INT64_MAX) ? INT64_MAX
+                                                                                                 : v[i].get<int64_t>();
+      if (index < INT32_MIN || index > INT32_MAX)
+        return Fail(key + "[" + std::to_string(i) + "]", "index " + v[i].dump() + " is out of range");
+      out.push_back(static_cast<int>(index));
     }
     return out;
   }

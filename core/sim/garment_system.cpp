@@ -391,6 +391,31 @@ double GarmentSystem::SumEnergies(const EvaluationRecord& r, EnergyBreakdown* br
   return std::isnan(total) ? std::numeric_limits<double>::infinity() : total;
 }
 
+std::string GarmentSystem::DescribeNonFiniteEnergy(const Positions& x) {
+  for (Eigen::Index v = 0; v < x.rows(); ++v)
+    if (!x.row(v).allFinite()) return "vertex " + std::to_string(v) + " has a non-finite coordinate";
+  EvaluationRecord r;
+  if (std::isfinite(Evaluate(x, nullptr, nullptr, nullptr, &r))) return "";
+  std::string out;
+  auto check = [&out](const std::vector<double>& energy_J, const char* term, const char* element, const char* why) {
+    for (size_t i = 0; i < energy_J.size(); ++i) {
+      if (std::isfinite(energy_J[i])) continue;
+      std::ostringstream m;
+      m << (out.empty() ? "" : "; ") << term << " energy not finite at " << element << " " << i << " (" << energy_J[i]
+        << " J" << why << ")";
+      out += m.str();
+      return;
+    }
+  };
+  const bool relaxed = model_.effects.relaxation != Relaxation::kNone;
+  check(r.membrane_J, "membrane", "face", relaxed ? "" : ": inverted or degenerate, and the relaxation is off");
+  check(r.fold_barrier_J, "fold barrier", "face", ": folded over");
+  check(r.attachment_J, "attachment", "face", "");
+  check(r.contact_J, "contact", "vertex", "");
+  check(r.friction_J, "friction", "vertex", "");
+  return out.empty() ? "the terms are finite but their sum is not" : out;
+}
+
 double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Eigen::SparseMatrix<double>* hessian,
                                EnergyBreakdown* breakdown, EvaluationRecord* record) {
   const int nv = num_vertices(), nf = num_faces();

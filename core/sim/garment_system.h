@@ -133,6 +133,11 @@ class GarmentSystem {
   double Evaluate(const Positions& x, Eigen::VectorXd* gradient, Eigen::SparseMatrix<double>* hessian,
                   EnergyBreakdown* breakdown = nullptr, EvaluationRecord* record = nullptr);
 
+  // Why the energy at x is not finite, for the solvers' error message: a non-finite coordinate, or each
+  // term whose energy is not finite with its first face or vertex and that element's energy. Empty when
+  // the energy at x is finite.
+  std::string DescribeNonFiniteEnergy(const Positions& x);
+
   // Evaluate(x, gradient, hessian, breakdown, record), given an evaluation at base.x with its record and,
   // when a gradient or Hessian is wanted here, its gradient and Hessian (`base_gradient`, `base_hessian`;
   // they may be the same objects as `gradient`, `hessian`, and `record` may be `&base`). Only the terms

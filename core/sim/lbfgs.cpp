@@ -78,7 +78,8 @@ SolveReport Simulator::SolveLbfgs(Positions* x, const SolverSettings& settings) 
     rep.energy_evaluations = f.evaluations;
     return rep;
   };
-  if (!std::isfinite(E)) return finish(SolveStatus::kInvalidState, "energy is not finite at the initial state");
+  if (!std::isfinite(E))
+    return finish(SolveStatus::kInvalidState, "energy is not finite at the initial state: " + sys.DescribeNonFiniteEnergy(f.x));
 
   std::deque<Eigen::VectorXd> S, Y;
   std::deque<double> rho;

@@ -199,7 +199,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   ++rep.energy_evaluations;
   if (!std::isfinite(E)) {
     rep.status = SolveStatus::kInvalidState;
-    rep.message = "energy is not finite at the initial state (inverted or degenerate triangle without relaxation?)";
+    rep.message = "energy is not finite at the initial state: " + sys.DescribeNonFiniteEnergy(*x);
     rep.energy_J = E;
     return rep;
   }

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/CholmodSupport>
+#include <limits>
 
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
@@ -206,6 +207,40 @@ TEST(Simulator, ReportsAnInvalidInitialState) {
   auto model = BuildGarmentModel(*pull);
   ASSERT_FALSE(model.ok());  // a degenerate start is rejected up front with the face named
   EXPECT_NE(model.message().find("zero area"), std::string::npos) << model.message();
+}
+
+// A start the model accepts but where the energy is infinite (a triangle turned over, neither relaxation
+// nor fold barrier on) ends both solvers with a typed invalid state that names the term and the face.
+TEST(Simulator, AnInfiniteStartNamesTheTermAndTheFace) {
+  auto pull = PullTestScene("all_cloth");
+  ASSERT_TRUE(pull.ok());
+  pull->effects.relaxation = Relaxation::kNone;
+  pull->effects.fold_barrier = false;
+  GarmentSystem sys(BuildGarmentModel(*pull).value(), pull->initial);
+  const Faces& faces = pull->garment.faces;
+  const int a = faces(1000, 0), b = faces(1000, 1), c = faces(1000, 2);
+  Positions start = pull->initial;
+  start.row(c) = start.row(a) + start.row(b) - start.row(c);  // c mirrored across the edge ab
+  EXPECT_EQ(sys.DescribeNonFiniteEnergy(pull->initial), "");
+  for (SolverMethod method : {SolverMethod::kNewton, SolverMethod::kLbfgs}) {
+    Simulator sim(&sys);
+    Positions x = start;
+    SolverSettings settings;
+    settings.method = method;
+    const SolveReport r = sim.Solve(&x, settings);
+    EXPECT_EQ(r.status, SolveStatus::kInvalidState);
+    const std::string key = "membrane energy not finite at face ";
+    const size_t at = r.message.find(key);
+    ASSERT_NE(at, std::string::npos) << r.message;
+    const int face = std::stoi(r.message.substr(at + key.size()));
+    ASSERT_GE(face, 0);
+    ASSERT_LT(face, faces.rows());
+    EXPECT_TRUE(faces(face, 0) == c || faces(face, 1) == c || faces(face, 2) == c)
+        << "face " << face << " does not hold the moved vertex " << c << ": " << r.message;
+    EXPECT_NE(r.message.find("the relaxation is off"), std::string::npos) << r.message;
+  }
+  start(c, 1) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(sys.DescribeNonFiniteEnergy(start), "vertex " + std::to_string(c) + " has a non-finite coordinate");
 }
 
 // The pull-test Line sits in uniaxial tension, on the gradient jump of the authors' relaxation: the
