@@ -4,6 +4,7 @@
 
 #include <google/protobuf/util/json_util.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -83,8 +84,8 @@ Result<BesoSettings> SettingsOfJob(const v1::OptimizerSettings& o, double scene_
   if (Status st = ValidateBesoSettings(s); !st.ok()) return st;
   if (o.has_max_newton_iterations() && o.max_newton_iterations() < 1)
     return Status::Error("max_newton_iterations = " + std::to_string(o.max_newton_iterations()) + " must be >= 1");
-  if (o.has_grad_tol() && !(o.grad_tol() > 0))
-    return Status::Error("grad_tol = " + std::to_string(o.grad_tol()) + " must be > 0");
+  if (o.has_grad_tol() && !(o.grad_tol() > 0 && std::isfinite(o.grad_tol())))
+    return Status::Error("grad_tol = " + std::to_string(o.grad_tol()) + " must be finite and > 0");
   return s;
 }
 

@@ -140,6 +140,12 @@ TEST_F(DesignCommand, BadParametersAreRefused) {
     EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
     EXPECT_NE(r.output.find(needle), std::string::npos) << args << "\n" << r.output;
   }
+  // NaN is how the flags mark "not given": a NaN given must be refused, not read as the scene's budget.
+  for (const std::string args : {"--budget nan", "--tau inf"}) {
+    const CommandRun r = Kgd("design pull_test_all_cloth " + args + " --out " + Path("bad.h5"));
+    EXPECT_NE(r.exit_code, 0) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find("is not a finite number"), std::string::npos) << args << "\n" << r.output;
+  }
   EXPECT_FALSE(fs::exists(Path("bad.h5"))) << "nothing is written for a refused job";
   CommandRun r = Kgd("design no_such_scene --out " + Path("x.h5"));
   EXPECT_EQ(r.exit_code, 2) << r.output;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 
 #include "core/sim/garment_system.h"
@@ -10,14 +11,16 @@ namespace kgd {
 
 Status ValidateBesoSettings(const BesoSettings& s) {
   auto bad = [](const char* name, double v, const char* range) {
-    return Status::Error(std::string("BESO setting ") + name + " = " + std::to_string(v) + " must be " + range);
+    char value[32];
+    std::snprintf(value, sizeof value, "%.6g", v);
+    return Status::Error(std::string("BESO setting ") + name + " = " + value + " must be " + range);
   };
   if (!(s.budget > 0 && s.budget <= 1)) return bad("budget", s.budget, "in (0, 1]");
   if (!(s.evolutionary_ratio > 0 && s.evolutionary_ratio < 1)) return bad("evolutionary_ratio (ER)", s.evolutionary_ratio, "in (0, 1)");
   if (!(s.admission_ratio > 0 && s.admission_ratio < 1)) return bad("admission_ratio (AR_max)", s.admission_ratio, "in (0, 1)");
-  if (!(s.penalty >= 1)) return bad("penalty (p)", s.penalty, ">= 1");
+  if (!(s.penalty >= 1 && std::isfinite(s.penalty))) return bad("penalty (p)", s.penalty, "finite and >= 1");
   if (!(s.d_min > 0 && s.d_min < 1)) return bad("d_min", s.d_min, "in (0, 1)");
-  if (!(s.tau > 0)) return bad("tau", s.tau, "> 0");
+  if (!(s.tau > 0 && std::isfinite(s.tau))) return bad("tau", s.tau, "finite and > 0");
   if (s.converge_window < 1) return bad("converge_window", s.converge_window, ">= 1");
   if (s.max_iterations < 1) return bad("max_iterations", s.max_iterations, ">= 1");
   return Status::Ok();

@@ -30,8 +30,8 @@ struct BesoSettings {
   int max_iterations = 400;
 };
 
-// Budget in (0, 1], ER and AR_max in (0, 1), p >= 1, d_min in (0, 1), tau > 0, window >= 1. The message
-// names the setting and its value.
+// Budget in (0, 1], ER and AR_max in (0, 1), p >= 1 and finite, d_min in (0, 1), tau > 0 and finite,
+// window >= 1. The message names the setting and its value.
 Status ValidateBesoSettings(const BesoSettings& s);
 
 // Sensitivity of each element from its strain energy density W (Pa), paper eq. (sensitivity):

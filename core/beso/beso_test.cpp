@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "core/sim/garment_system.h"
 
 namespace kgd {
@@ -116,6 +118,21 @@ TEST(Beso, BadSettingsAreNamed) {
   s = {};
   s.penalty = 0.9;
   EXPECT_NE(ValidateBesoSettings(s).message().find("penalty (p)"), std::string::npos);
+  // Non-finite values (a job submitted through the service can carry any double) and the value as given.
+  s = {};
+  s.penalty = std::numeric_limits<double>::infinity();
+  EXPECT_NE(ValidateBesoSettings(s).message().find("penalty (p) = inf must be finite and >= 1"), std::string::npos)
+      << ValidateBesoSettings(s).message();
+  s = {};
+  s.tau = std::numeric_limits<double>::infinity();
+  EXPECT_NE(ValidateBesoSettings(s).message().find("tau = inf"), std::string::npos);
+  s = {};
+  s.budget = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(ValidateBesoSettings(s).message().find("budget = nan"), std::string::npos);
+  s = {};
+  s.budget = 1e308;
+  EXPECT_NE(ValidateBesoSettings(s).message().find("budget = 1e+308 must be in (0, 1]"), std::string::npos)
+      << ValidateBesoSettings(s).message();
 }
 
 }  // namespace
