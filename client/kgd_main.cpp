@@ -18,7 +18,8 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // CLI11 prints the message (or the help) and has its own codes (105, 106, ...); ours for misuse is 1.
+    return app.exit(e) == 0 ? 0 : 1;
   }
   return exit_code;
 }

@@ -15,7 +15,10 @@ int main(int argc, char** argv) {
   app.add_option("--lease-s", o.lease_duration_s, "Seconds without a heartbeat after which a worker's job is queued again")
       ->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--max-attempts", o.max_attempts, "Leases a job gets before it fails")->check(CLI::PositiveNumber)->capture_default_str();
-  app.add_option("--max-message-mb", max_message_mb, "Largest request accepted (MiB)")->check(CLI::PositiveNumber)->capture_default_str();
+  // gRPC takes the limit as an int of bytes: below 2 GiB.
+  app.add_option("--max-message-mb", max_message_mb, "Largest request accepted (MiB)")
+      ->check(CLI::Range(0.001, 2047.0))
+      ->capture_default_str();
   app.add_option("--drain-s", o.drain_timeout_s, "On SIGTERM, seconds to wait for workers to checkpoint")->capture_default_str();
   app.add_flag("--quiet", o.quiet, "No log lines");
   CLI11_PARSE(app, argc, argv);
