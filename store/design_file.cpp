@@ -522,6 +522,31 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
       }
     }
   }
+  {
+    // Every kept iteration must read back whole before the file is appended to in SWMR mode: there
+    // HDF5 retries a metadata block whose checksum fails 100 times with doubling sleeps (what
+    // H5Fstart_swmr_write sets, whatever the access list says), i.e. for ever, where a reader gives up
+    // within a second. A damaged file (a disk error, a bad copy; fuzzing found a single byte enough)
+    // is rebuilt like a killed writer's, and the original is kept beside it.
+    Result<std::unique_ptr<DesignFileReader>> r = OpenDesignFileReader(path, /*salvage=*/false);
+    if (r.ok()) {
+      const hsize_t check = keep >= 0 ? std::min<hsize_t>(keep, (*r)->rows) : (*r)->rows;
+      for (hsize_t i = 0; i < check; ++i) {
+        BesoIteration it;
+        if (ReadIteration(**r, i, /*arrays=*/true, &it).ok()) continue;
+        std::error_code ec;
+        std::filesystem::copy_file(path, path + ".damaged", std::filesystem::copy_options::overwrite_existing, ec);
+        if (ec) return Fail(path, "iteration " + std::to_string(i) + " cannot be read, and the file cannot be kept as " +
+                                      path + ".damaged: " + ec.message());
+        Result<std::unique_ptr<DesignFileWriter>> w = Salvage(**r, static_cast<int>(check));
+        if (w.ok())
+          (*w)->repair_note_ = "rebuilt: iteration " + std::to_string(i) + " cannot be read (damaged); kept " +
+                               std::to_string((*w)->num_iterations()) + " of " + std::to_string(check) +
+                               " iterations; the damaged file is " + path + ".damaged";
+        return w;
+      }
+    }
+  }
   Result<DesignFile> existing = ReadDesignFile(path, {.arrays = false});
   if (!existing.ok()) return existing.status();
   const int stored = static_cast<int>(existing->iterations.size());

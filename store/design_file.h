@@ -28,7 +28,10 @@
 // after every iteration (an interrupted `kgd design` resumes from the last one). HDF5 is not
 // crash-safe: a writer killed mid-append can damage rows it had committed (about one kill in 150).
 // Reopen then rebuilds the file from the iterations that read back whole, and readers give up on a
-// damaged block within a second instead of retrying it for hours.
+// damaged block within a second instead of retrying it for hours. Reopen also reads every kept
+// iteration back first: a file damaged otherwise (one byte of a chunk index is enough) is rebuilt the
+// same way, with the original kept as FILE.damaged, since a writer in SWMR mode would retry the
+// damaged block for ever.
 #pragma once
 
 #include <memory>
@@ -67,15 +70,16 @@ class DesignFileWriter {
   // Creates (or overwrites) `path` with the header and no iterations.
   static Result<std::unique_ptr<DesignFileWriter>> Create(const std::string& path, const DesignFileHeader& header);
   // Opens an existing file to append after its first `keep` iterations (later ones are dropped;
-  // keep < 0: all). A file whose writer was killed is first rebuilt from the iterations that read back
-  // whole, which may be fewer than `keep`: num_iterations() says how many were kept.
+  // keep < 0: all). A file whose writer was killed, or with an iteration that does not read back whole,
+  // is first rebuilt from the iterations that do, which may be fewer than `keep`: num_iterations() says
+  // how many were kept, repair_note() what happened (a damaged original is kept as path + ".damaged").
   static Result<std::unique_ptr<DesignFileWriter>> Reopen(const std::string& path, int keep = -1);
   ~DesignFileWriter();
 
   // Appends one iteration (its index must be the number stored so far) and flushes it to disk.
   Status Append(const BesoIteration& iteration);
   int num_iterations() const { return count_; }
-  // Empty, or what Reopen did to a killed writer's file ("rebuilt ...: kept K of N iterations").
+  // Empty, or what Reopen did to a killed writer's or a damaged file ("rebuilt ...: kept K of N iterations").
   const std::string& repair_note() const { return repair_note_; }
   int faces() const;
   int vertices() const;

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <csignal>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -232,6 +233,57 @@ TEST(DesignFile, AWriterKilledAtAnyMomentLeavesAFileThatReopensWithAnIntactPrefi
     ExpectRunPrefix(f, *read, n + 1);
   }
   std::filesystem::remove(path);
+}
+
+// A damaged chunk index (one byte of one extensible-array index block, as a disk error or a bad copy
+// leaves it) must not send a resumed writer into HDF5's SWMR retries, which sleep for ever. Reopen
+// finds the iterations that no longer read back whole, rebuilds the file from the ones before them,
+// keeps the original as FILE.damaged, and the file takes appends again. Every index block is tried in
+// turn; at least one must damage an iteration's arrays.
+TEST(DesignFile, ADamagedFileIsRebuiltAndKeptInsteadOfHangingTheWriter) {
+  const Fixture f = MakeRun(3);
+  const std::string path = TempPath("damaged.h5");
+  {
+    auto w = DesignFileWriter::Create(path, f.header);
+    ASSERT_TRUE(w.ok()) << w.message();
+    for (size_t k = 0; k < 4; ++k) ASSERT_TRUE((*w)->Append(f.run[k]).ok());
+  }
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  int damaging = 0;
+  for (size_t at = bytes.find("EAIB"); at != std::string::npos; at = bytes.find("EAIB", at + 1)) {
+    std::string damaged = bytes;
+    damaged[at + 8] = static_cast<char>(damaged[at + 8] ^ 0x5a);
+    std::ofstream(path, std::ios::binary | std::ios::trunc).write(damaged.data(), static_cast<std::streamsize>(damaged.size()));
+    std::filesystem::remove(path + ".damaged");
+    const bool reads_whole = ReadDesignFile(path, {.arrays = true}).ok();
+    auto w = DesignFileWriter::Reopen(path);
+    if (reads_whole) {
+      ASSERT_TRUE(w.ok()) << w.message();
+      EXPECT_TRUE((*w)->repair_note().empty()) << (*w)->repair_note();
+      continue;
+    }
+    ++damaging;
+    ASSERT_TRUE(w.ok()) << "index block at byte " << at << ": " << w.message();
+    EXPECT_NE((*w)->repair_note().find("cannot be read (damaged)"), std::string::npos) << (*w)->repair_note();
+    if ((*w)->repair_note().empty()) continue;  // appending to the damaged file would hang the test
+    EXPECT_LT((*w)->num_iterations(), 4);
+    BesoIteration next = f.run[(*w)->num_iterations()];
+    ASSERT_TRUE((*w)->Append(next).ok());
+    w->reset();
+    const Result<DesignFile> d = ReadDesignFile(path);
+    ASSERT_TRUE(d.ok()) << d.message();
+    EXPECT_EQ(d->iterations.size(), static_cast<size_t>(next.iteration + 1));
+    std::ifstream kept(path + ".damaged", std::ios::binary);
+    const std::string kept_bytes((std::istreambuf_iterator<char>(kept)), {});
+    EXPECT_EQ(kept_bytes, damaged) << "the damaged original is kept as it was";
+  }
+  EXPECT_GT(damaging, 0) << "no index block damaged an iteration: the test damages nothing";
+  std::filesystem::remove(path);
+  std::filesystem::remove(path + ".damaged");
 }
 
 TEST(DesignFile, RefusesFilesThatAreNotDesignFiles) {
