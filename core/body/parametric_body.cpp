@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <numbers>
 
@@ -91,7 +92,11 @@ Status ValidateJointAngles(const JointAngles& angles) {
       return Status::Error("joint angle '" + name + "' is not known (known: " + list + ")");
     }
     if (!std::isfinite(value) || std::abs(value) > 3.2)
-      return Status::Error("joint angle '" + name + "' = " + std::to_string(value) + " rad is not a finite angle in [-pi, pi]");
+    {
+      char value_text[32];
+      std::snprintf(value_text, sizeof value_text, "%g", value);
+      return Status::Error("joint angle '" + name + "' = " + value_text + " rad is not a finite angle in [-pi, pi]");
+    }
   }
   return Status::Ok();
 }
@@ -153,8 +158,11 @@ Status ValidateMeasurements(const BodyMeasurements& m) {
   for (const MeasurementField& f : kMeasurementFields) {
     const double v = m.*f.field;
     if (!std::isfinite(v) || v < f.lo || v > f.hi)
-      return Status::Error("body measurement " + std::string(f.name) + " = " + std::to_string(v) + " is outside [" +
-                           std::to_string(f.lo) + ", " + std::to_string(f.hi) + "]");
+    {
+      char message[160];
+      std::snprintf(message, sizeof message, "body measurement %s = %g is outside [%g, %g]", f.name, v, f.lo, f.hi);
+      return Status::Error(message);
+    }
   }
   const double s = m.height_m / 1.70;
   const double legs = 0.075 * s + m.thigh_length_m + m.shank_length_m;

@@ -69,11 +69,12 @@ TEST(ParametricBody, BadMeasurementsAndAnglesAreNamed) {
   m.thigh_circumference_m = 2.0;
   const Result<ParametricBody> b = BuildParametricBody(m);
   ASSERT_FALSE(b.ok());
-  EXPECT_NE(b.message().find("thigh_circumference_m"), std::string::npos) << b.message();
+  EXPECT_NE(b.message().find("thigh_circumference_m = 2 is outside ["), std::string::npos) << b.message();
   const Result<Positions> p = PoseBody(Body(), {{"r_elbw_flex", 1.0}});
   ASSERT_FALSE(p.ok());
   EXPECT_NE(p.message().find("r_elbw_flex"), std::string::npos) << p.message();
   EXPECT_FALSE(PoseBody(Body(), {{"r_elbow_flex", std::nan("")}}).ok());
+  EXPECT_NE(PoseBody(Body(), {{"r_elbow_flex", 12.5}}).message().find("'r_elbow_flex' = 12.5 rad"), std::string::npos);
 }
 
 TEST(ParametricBody, MusclesBulgeWithFlexion) {
