@@ -56,11 +56,28 @@ std::string JoinWords(const std::vector<std::string>& words) {
 Result<SceneSpec> SceneOfDesignFile(const std::string& path, const DesignFileHeader& h) {
   Result<SceneSpec> scene = ResolveScene(h.scene, SplitWords(h.body));
   if (!scene.ok()) return Status::Error(path + ": the job's scene '" + h.scene + "' cannot be rebuilt: " + scene.message());
-  if (scene->garment.faces.rows() != h.garment.faces.rows() || scene->garment.vertices.rows() != h.garment.vertices.rows() ||
-      !(scene->garment.faces == h.garment.faces) || !(scene->garment.vertices == h.garment.vertices) || !(scene->initial == h.initial))
-    return Status::Error(path + ": the scene '" + h.scene + "' no longer gives the garment stored in the file (" +
-                         std::to_string(scene->garment.vertices.rows()) + " vertices now, " +
-                         std::to_string(h.garment.vertices.rows()) + " stored); was the scene file or kgd changed?");
+  // What differs first, so that the user can find it (an edited mesh, another kgd, a damaged file).
+  std::string differs;
+  auto first_row = [](const auto& now, const auto& stored) {
+    for (Eigen::Index r = 0; r < now.rows(); ++r)
+      if (!(now.row(r) == stored.row(r))) return r;
+    return Eigen::Index(-1);
+  };
+  if (scene->garment.vertices.rows() != h.garment.vertices.rows() || scene->garment.faces.rows() != h.garment.faces.rows() ||
+      scene->initial.rows() != h.initial.rows()) {
+    differs = std::to_string(scene->garment.vertices.rows()) + " vertices and " + std::to_string(scene->garment.faces.rows()) +
+              " faces now, " + std::to_string(h.garment.vertices.rows()) + " and " + std::to_string(h.garment.faces.rows()) +
+              " stored";
+  } else if (Eigen::Index f = first_row(scene->garment.faces, h.garment.faces); f >= 0) {
+    differs = "face " + std::to_string(f) + " has other vertices";
+  } else if (Eigen::Index v = first_row(scene->garment.vertices, h.garment.vertices); v >= 0) {
+    differs = "rest vertex " + std::to_string(v) + " moved";
+  } else if (Eigen::Index v = first_row(scene->initial, h.initial); v >= 0) {
+    differs = "initial (on-body) vertex " + std::to_string(v) + " moved";
+  }
+  if (!differs.empty())
+    return Status::Error(path + ": the scene '" + h.scene + "' no longer gives the garment stored in the file (" + differs +
+                         "); was the scene file or kgd changed?");
   return scene;
 }
 

@@ -158,6 +158,31 @@ TEST_F(DesignCommand, BadParametersAreRefused) {
   EXPECT_NE(r.output.find("not an HDF5 file"), std::string::npos) << r.output;
 }
 
+// Resuming after the scene's mesh was edited is refused with the first difference named.
+TEST_F(DesignCommand, ResumeNamesWhatChangedInTheScene) {
+  CommandRun r = Kgd("scene export pull_test_all_cloth " + Path("scene"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = Kgd("design " + Path("scene/scene.json") + " --iterations 1 --budget 0.6 --er 0.05 --ar-max 0.05 --out " + Path("d.h5"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // Move rest vertex 7 (the eighth "v" line) by 1 mm.
+  std::ifstream in(Path("scene/garment_rest.obj"));
+  std::string text, line;
+  for (int v = 0; std::getline(in, line);) {
+    if (line.rfind("v ", 0) == 0 && v++ == 7) {
+      double x, y, z;
+      std::sscanf(line.c_str(), "v %lf %lf %lf", &x, &y, &z);
+      line = "v " + std::to_string(x + 1e-3) + " " + std::to_string(y) + " " + std::to_string(z);
+    }
+    text += line + "\n";
+  }
+  in.close();
+  std::ofstream(Path("scene/garment_rest.obj")) << text;
+  r = Kgd("design --resume " + Path("d.h5") + " --iterations 3");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("no longer gives the garment stored in the file (rest vertex 7 moved)"), std::string::npos)
+      << r.output;
+}
+
 TEST_F(DesignCommand, EvaluateAndBaselinesReadTheFile) {
   ASSERT_EQ(Kgd(kJob + " --iterations 3 --out " + Path("e.h5")).exit_code, 0);
   // The pull test has no motion frames: evaluate simulates its one pose, beside the fully reinforced design.
