@@ -41,6 +41,17 @@ void Report(benchmark::State& state, const SolveReport& r) {
   state.counters["factor_nnz"] = r.factor_nonzeros;
 }
 
+// Per-solve means over `steps` solves accumulated in `total` (AccumulateSolve).
+void ReportMeans(benchmark::State& state, const SolveReport& total, int steps) {
+  state.counters["iterations"] = double(total.iterations) / steps;
+  state.counters["factorizations"] = double(total.factorizations) / steps;
+  state.counters["local_steps"] = double(total.local_steps) / steps;
+  state.counters["assembly_ms"] = 1e3 * total.assembly_s / steps;
+  state.counters["factor_ms"] = 1e3 * total.factorization_s / steps;
+  state.counters["solve_ms"] = 1e3 * total.solve_s / steps;
+  state.counters["linesearch_ms"] = 1e3 * total.line_search_s / steps;
+}
+
 // Cold: a fresh simulator (symbolic analysis included) from the body-surface initial state.
 void BM_NewtonCold(benchmark::State& state) {
   const SceneSpec s = Sleeve(state.range(0));
@@ -111,15 +122,9 @@ void BM_WarmResolve(benchmark::State& state) {
     ++steps;
     AccumulateSolve(&total, r);
   }
-  state.counters["iterations"] = double(total.iterations) / steps;
-  state.counters["factorizations"] = double(total.factorizations) / steps;
+  ReportMeans(state, total, steps);
   state.counters["pcg_solves"] = double(total.pcg_solves) / steps;
   state.counters["pcg_iterations"] = double(total.pcg_iterations) / steps;
-  state.counters["local_steps"] = double(total.local_steps) / steps;
-  state.counters["assembly_ms"] = 1e3 * total.assembly_s / steps;
-  state.counters["factor_ms"] = 1e3 * total.factorization_s / steps;
-  state.counters["solve_ms"] = 1e3 * total.solve_s / steps;
-  state.counters["linesearch_ms"] = 1e3 * total.line_search_s / steps;
   state.counters["failures"] = failures;
   state.counters["last_energy_J"] = energy;
   state.counters["factor_nnz"] = total.factor_nonzeros;
@@ -180,13 +185,7 @@ void BM_WarmResolveBeso(benchmark::State& state) {
     ++steps;
     AccumulateSolve(&total, r);
   }
-  state.counters["iterations"] = double(total.iterations) / steps;
-  state.counters["factorizations"] = double(total.factorizations) / steps;
-  state.counters["local_steps"] = double(total.local_steps) / steps;
-  state.counters["assembly_ms"] = 1e3 * total.assembly_s / steps;
-  state.counters["factor_ms"] = 1e3 * total.factorization_s / steps;
-  state.counters["solve_ms"] = 1e3 * total.solve_s / steps;
-  state.counters["linesearch_ms"] = 1e3 * total.line_search_s / steps;
+  ReportMeans(state, total, steps);
   state.counters["still_steps"] = still;
   state.counters["moving_ms"] = steps > still ? 1e3 * moving_s / (steps - still) : 0.0;
   state.counters["failures"] = failures;
@@ -237,12 +236,7 @@ void BM_WarmFirstIterations(benchmark::State& state) {
     state.ResumeTiming();
   }
   state.counters["resid_over_tol"] = resid_over_tol / steps;
-  state.counters["iterations"] = double(total.iterations) / steps;
-  state.counters["factorizations"] = double(total.factorizations) / steps;
-  state.counters["assembly_ms"] = 1e3 * total.assembly_s / steps;
-  state.counters["factor_ms"] = 1e3 * total.factorization_s / steps;
-  state.counters["solve_ms"] = 1e3 * total.solve_s / steps;
-  state.counters["linesearch_ms"] = 1e3 * total.line_search_s / steps;
+  ReportMeans(state, total, steps);
 }
 BENCHMARK(BM_WarmFirstIterations)
     ->DenseRange(1, 3)
