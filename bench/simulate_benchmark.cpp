@@ -244,6 +244,72 @@ BENCHMARK(BM_WarmFirstIterations)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(20);
 
+// The same sleeve with a smooth energy: no tension-field relaxation (compression resisted) and
+// bilateral contact, so no element changes regime under a step. Not the product's model (the sleeve's
+// equilibrium energy is 3x the relaxed one): what the warm re-solve and the Newton/L-BFGS ratio would be
+// without the relaxation's and the unilateral penalty's Hessian jumps (docs/PERFORMANCE.md).
+GarmentModel SmoothSleeveModel(const SceneSpec& s) {
+  GarmentModel model = BuildGarmentModel(s).value();
+  model.effects.relaxation = Relaxation::kNone;
+  model.effects.contact = ContactModel::kBilateral;
+  return model;
+}
+
+// Cold on the smooth model: method 1 Newton, 2 L-BFGS.
+void BM_SmoothCold(benchmark::State& state) {
+  const SceneSpec s = Sleeve(true);
+  GarmentSystem sys(SmoothSleeveModel(s), s.initial);
+  SolverSettings settings;
+  settings.method = state.range(0) == 2 ? SolverMethod::kLbfgs : SolverMethod::kNewton;
+  settings.grad_tol = GradTol(state, 1);
+  SolveReport r;
+  for (auto _ : state) {
+    Simulator sim(&sys);
+    Positions x = s.initial;
+    r = sim.Solve(&x, settings);
+  }
+  Report(state, r);
+  state.counters["energy_J"] = r.energy_J;
+}
+BENCHMARK(BM_SmoothCold)
+    ->ArgsProduct({{1, 2}, {4, 6}})
+    ->ArgNames({"method", "tol_exp"})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+
+// BM_WarmResolve's 20 random design steps on the smooth model. method: 0 Newton with PCG on the
+// solve's first factorization (SolverSettings::reuse_factorization), 1 Newton (the default), 2 L-BFGS.
+void BM_WarmResolveSmooth(benchmark::State& state) {
+  const SceneSpec s = Sleeve(true);
+  GarmentSystem sys(SmoothSleeveModel(s), s.initial);
+  Simulator sim(&sys);
+  SolverSettings settings;
+  settings.method = state.range(0) == 2 ? SolverMethod::kLbfgs : SolverMethod::kNewton;
+  settings.reuse_factorization = state.range(0) == 0;
+  Positions x = s.initial;
+  sim.Solve(&x, settings);
+  DesignSteps steps_of_design(s.design);
+  SolveReport total;
+  int steps = 0, failures = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    steps_of_design.Next(&sys);
+    state.ResumeTiming();
+    const SolveReport r = sim.Solve(&x, settings);
+    failures += !r.converged();
+    ++steps;
+    AccumulateSolve(&total, r);
+  }
+  ReportMeans(state, total, steps);
+  state.counters["pcg_solves"] = double(total.pcg_solves) / steps;
+  state.counters["failures"] = failures;
+}
+BENCHMARK(BM_WarmResolveSmooth)
+    ->DenseRange(0, 2)
+    ->ArgName("method")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(20);
+
 // The paper's method to the same tolerance, cold, on the cloth or the fully reinforced sleeve (the
 // design loop's first solve).
 void BM_LbfgsCold(benchmark::State& state) {

@@ -273,8 +273,12 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
     for (int attempt = 0; attempt < 8 && !accepted; ++attempt) {
       Eigen::VectorXd p;
       bool have_step = false;
-      // 1) Conjugate gradients preconditioned by the previous factorization.
-      if (settings.reuse_factorization && pcg_allowed && nt.have_factor && !fresh_factor && attempt == 0 && !skip_pcg) {
+      // 1) Conjugate gradients preconditioned by this solve's last factorization. Not for a solve's
+      //    first step: the caller's change (a design flip turns faces' stiffness 11x) makes the last
+      //    solve's factorization a poor preconditioner, and on smooth scenes one fresh factorization
+      //    and PCG on it for the later steps beat PCG from the old one (docs/PERFORMANCE.md).
+      if (settings.reuse_factorization && pcg_allowed && nt.have_factor && !fresh_factor && attempt == 0 && !skip_pcg &&
+          it > 0) {
         t = Clock::now();
         const double eta = std::min(0.1, std::sqrt(rep.grad_norm_N / std::max(g0, 1e-300)));
         Eigen::VectorXd rvec = -g, z = nt.cholesky.Solve(rvec), d = z, Ad;

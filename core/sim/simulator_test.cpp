@@ -56,15 +56,65 @@ TEST(Simulator, WarmResolveAfterADesignChangeReusesTheFactorization) {
   for (size_t f = 0; f < design.size(); f += 67) design[f] = kReinforced;
   sys.SetDesign(design);
   Positions x_reuse = x, x_fresh = x;
-  const SolveReport reuse = sim.Solve(&x_reuse, tight);
+  std::vector<IterationInfo> trace;
+  SolverSettings traced = tight;
+  traced.on_iteration = [&trace](const IterationInfo& i) { trace.push_back(i); };
+  const SolveReport reuse = sim.Solve(&x_reuse, traced);
   EXPECT_TRUE(reuse.converged()) << reuse.message;
   EXPECT_GT(reuse.pcg_solves, 0);
+  // The first step meets the new design with a fresh factorization; PCG serves the later steps.
+  ASSERT_FALSE(trace.empty());
+  EXPECT_FALSE(trace.front().used_pcg);
+  EXPECT_GE(reuse.factorizations, 1);
   SolverSettings no_reuse = tight;
   no_reuse.reuse_factorization = false;
   Simulator fresh(&sys);
   const SolveReport direct = fresh.Solve(&x_fresh, no_reuse);
   EXPECT_TRUE(direct.converged());
   EXPECT_NEAR(reuse.energy_J, direct.energy_J, 1e-9 * std::abs(direct.energy_J));
+}
+
+// Where the energy is smooth (no relaxation, bilateral contact) the Hessian changes little between a
+// re-solve's steps: one factorization at its first step, and PCG on it for every later step.
+TEST(Simulator, OnASmoothSceneAReSolveFactorizesOnceAndReusesItWithinTheSolve) {
+  SleeveOptions o;
+  o.around = 32;
+  o.sleeve_halflength_m = 0.10;
+  o.rest_on_body = true;
+  o.reinforced = true;
+  const SceneSpec s = SleeveOnLimbScene(o);
+  auto model = BuildGarmentModel(s);
+  ASSERT_TRUE(model.ok());
+  model.value().effects.relaxation = Relaxation::kNone;
+  model.value().effects.contact = ContactModel::kBilateral;
+  GarmentSystem sys(std::move(model).value(), s.initial);
+  SolverSettings reuse;
+  reuse.grad_tol = 1e-7;
+  reuse.reuse_factorization = true;
+  SolverSettings direct = reuse;
+  direct.reuse_factorization = false;
+  Simulator sim(&sys), fresh(&sys);
+  Positions x = s.initial;
+  ASSERT_TRUE(sim.Solve(&x, reuse).converged());
+  Positions y = x;
+  ASSERT_TRUE(fresh.Solve(&y, direct).converged());
+  std::vector<uint8_t> design = sys.model().design;
+  int pcg_steps = 0;
+  for (int step = 0; step < 4; ++step) {
+    for (size_t f = step; f < design.size(); f += 67) design[f] = kCloth;
+    sys.SetDesign(design);
+    const SolveReport r = sim.Solve(&x, reuse);
+    const SolveReport d = fresh.Solve(&y, direct);
+    ASSERT_TRUE(r.converged()) << r.message;
+    ASSERT_TRUE(d.converged()) << d.message;
+    EXPECT_GE(r.iterations, 2);
+    EXPECT_EQ(r.factorizations, 1) << "step " << step;
+    EXPECT_EQ(r.pcg_solves, r.iterations - 1) << "step " << step;
+    EXPECT_EQ(d.pcg_solves, 0);
+    EXPECT_NEAR(r.energy_J, d.energy_J, 1e-8 * std::abs(d.energy_J)) << "step " << step;
+    pcg_steps += r.pcg_solves;
+  }
+  EXPECT_GT(pcg_steps, 0);
 }
 
 // BESO-like warm re-solves on a fully reinforced sleeve: a cold solve, then 8 times 1.5 % of the faces
