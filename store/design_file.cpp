@@ -117,10 +117,16 @@ bool ReadIntAttribute(hid_t obj, const char* name, int* value) {
 // A fixed-size dataset written at once (row-major data).
 bool WriteFixed(hid_t group, const char* name, hid_t file_type, hid_t mem_type, const std::vector<hsize_t>& dims, const void* data) {
   Id space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
-  Id set(H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
-  if (!set.ok()) return false;
   bool empty = false;
   for (hsize_t d : dims) empty |= d == 0;
+  // One chunk, for its checksum (see CreateGrowing); an empty dataset cannot be chunked.
+  Id plist(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  if (!empty) {
+    H5Pset_chunk(plist, static_cast<int>(dims.size()), dims.data());
+    H5Pset_fletcher32(plist);
+  }
+  Id set(H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, plist, H5P_DEFAULT), H5Dclose);
+  if (!set.ok()) return false;
   return empty || H5Dwrite(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0;
 }
 
@@ -169,6 +175,10 @@ bool CreateGrowing(hid_t group, const char* name, hid_t file_type, const std::ve
     H5Pset_shuffle(plist);
     H5Pset_deflate(plist, 4);
   }
+  // HDF5 checksums its metadata but not raw data: without this a flipped byte in a chunk of positions
+  // read back silently as another number. With it the chunk fails to read, and the iteration is
+  // treated as damaged (Reopen rebuilds the file without it).
+  H5Pset_fletcher32(plist);
   Id set(H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, plist, H5P_DEFAULT), H5Dclose);
   return set.ok();
 }
@@ -378,7 +388,7 @@ Result<std::unique_ptr<DesignFileReader>> OpenDesignFileReader(const std::string
         !ReadAll(g, "rest_area", H5T_NATIVE_DOUBLE, h.rest_area_m2.data()) ||
         !ReadAll(g, "initial_positions", H5T_NATIVE_DOUBLE, initial.data()) ||
         (ts[0] > 0 && !ReadAll(g, "attachment_faces", H5T_NATIVE_INT, h.attachment_faces.data())))
-      return Fail(path, "cannot read /garment");
+      return Fail(path, "cannot read /garment (damaged?)");
     h.garment.vertices = FromRowMajor(rest);
     h.initial = FromRowMajor(initial);
     h.garment.faces.resize(fs[0], 3);

@@ -20,7 +20,9 @@
 //   /iterations/energy_density_Pa (N,F) float64, strain energy density W
 //   /iterations/sensitivity      (N,F)   float64, filtered averaged sensitivities (row 0: zeros)
 //
-// Per-iteration arrays are chunked one iteration per chunk, metrics 64 iterations per chunk; designs
+// Per-iteration arrays are chunked one iteration per chunk, metrics 64 iterations per chunk, /garment
+// datasets in one chunk each; every chunk carries a Fletcher-32 checksum (files written before it
+// have none and read as before); designs
 // are deflate-compressed, the float arrays are not (they shrink by only ~25 % at most of an append's
 // cost: design_file.cpp; `h5repack -f GZIP=4` packs a finished file). Datasets grow by one row per
 // Append. /iterations/iteration is written last: its length is the number of complete

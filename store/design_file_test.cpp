@@ -3,6 +3,7 @@
 #include "store/design_file.h"
 
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include <filesystem>
 #include <fstream>
@@ -282,6 +283,70 @@ TEST(DesignFile, ADamagedFileIsRebuiltAndKeptInsteadOfHangingTheWriter) {
     EXPECT_EQ(kept_bytes, damaged) << "the damaged original is kept as it was";
   }
   EXPECT_GT(damaging, 0) << "no index block damaged an iteration: the test damages nothing";
+  std::filesystem::remove(path);
+  std::filesystem::remove(path + ".damaged");
+}
+
+// Flips one bit in the middle of the chunk of `dataset` that holds element `coord`.
+void FlipABitInChunk(const std::string& path, const char* dataset, const std::vector<hsize_t>& coord) {
+  haddr_t address = HADDR_UNDEF;
+  hsize_t size = 0;
+  {
+    const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+    const hid_t set = H5Dopen2(file, dataset, H5P_DEFAULT);
+    ASSERT_GE(set, 0) << dataset;
+    unsigned filter_mask = 0;
+    ASSERT_GE(H5Dget_chunk_info_by_coord(set, coord.data(), &filter_mask, &address, &size), 0) << dataset << " is not chunked";
+    H5Dclose(set);
+    H5Fclose(file);
+  }
+  ASSERT_NE(address, HADDR_UNDEF);
+  ASSERT_GT(size, 100u);
+  std::fstream io(path, std::ios::binary | std::ios::in | std::ios::out);
+  io.seekg(static_cast<std::streamoff>(address + size / 2));
+  char byte = 0;
+  io.read(&byte, 1);
+  byte = static_cast<char>(byte ^ 0x01);  // one bit of a mantissa
+  io.seekp(static_cast<std::streamoff>(address + size / 2));
+  io.write(&byte, 1);
+}
+
+// A flipped bit in raw data (HDF5 checksums only its metadata) is caught by the chunks' checksums instead
+// of reading back as another number: an iteration's is damage that Reopen rebuilds the file without, the
+// garment's makes the file unreadable.
+TEST(DesignFile, AFlippedBitInRawDataIsDamageNotAnotherNumber) {
+  const Fixture f = MakeRun(3);
+  const std::string path = TempPath("raw_damaged.h5");
+  auto write = [&] {
+    std::filesystem::remove(path + ".damaged");
+    auto w = DesignFileWriter::Create(path, f.header);
+    ASSERT_TRUE(w.ok()) << w.message();
+    for (size_t k = 0; k < 3; ++k) ASSERT_TRUE((*w)->Append(f.run[k]).ok());
+  };
+  write();
+  FlipABitInChunk(path, "/iterations/positions", {1, 0, 0});
+  const Result<DesignFile> d = ReadDesignFile(path, {.arrays = true});
+  ASSERT_FALSE(d.ok()) << "a flipped bit in iteration 1's positions read back as another number";
+  EXPECT_NE(d.message().find("iteration 1"), std::string::npos) << d.message();
+  EXPECT_NE(d.message().find(path), std::string::npos) << d.message();
+  auto w = DesignFileWriter::Reopen(path);
+  ASSERT_TRUE(w.ok()) << w.message();
+  EXPECT_NE((*w)->repair_note().find("iteration 1 cannot be read (damaged)"), std::string::npos) << (*w)->repair_note();
+  EXPECT_EQ((*w)->num_iterations(), 1);
+  ASSERT_TRUE((*w)->Append(f.run[1]).ok());
+  w->reset();
+  const Result<DesignFile> rebuilt = ReadDesignFile(path, {.arrays = true});
+  ASSERT_TRUE(rebuilt.ok()) << rebuilt.message();
+  ASSERT_EQ(rebuilt->iterations.size(), 2u);
+  ExpectSame(rebuilt->iterations[1], f.run[1]);
+  EXPECT_TRUE(std::filesystem::exists(path + ".damaged"));
+
+  write();
+  FlipABitInChunk(path, "/garment/rest_vertices", {0, 0});
+  const Result<DesignFile> g = ReadDesignFile(path, {.arrays = false});
+  ASSERT_FALSE(g.ok()) << "a flipped bit in the garment's rest shape read back as another number";
+  EXPECT_NE(g.message().find("cannot read /garment"), std::string::npos) << g.message();
   std::filesystem::remove(path);
   std::filesystem::remove(path + ".damaged");
 }
