@@ -68,7 +68,7 @@ struct SolverSettings {
   // garment-on-body scenes the Hessian moves too much between steps (regimes switch, contact changes),
   // the PCG attempts fail and are wasted, and a BESO iteration took 0.84 s with them against 0.59 s
   // without (arm flexion, docs/PERFORMANCE.md). On smooth problems (bilateral contact, no relaxation) a
-  // re-solve then factorizes once: 40 ms on the 7k sleeve against 60 ms without reuse.
+  // re-solve then factorizes once: 36-46 ms on the 7k sleeve against 53-63 ms without reuse.
   bool reuse_factorization = false;
   int max_pcg_iterations = 25;
   // Newton with unilateral contact: the line search corrects its trial points where the linear model of
