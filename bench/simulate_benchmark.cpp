@@ -94,19 +94,11 @@ struct DesignSteps {
 };
 
 // Warm: starting fully reinforced, each timed step turns another 1.5 % of the triangles to cloth and
-// re-solves from the previous equilibrium with the same simulator (method: see BENCHMARK below).
-void BM_WarmResolve(benchmark::State& state) {
-  const SceneSpec s = Sleeve(true);
-  auto model = BuildGarmentModel(s);
-  GarmentSystem sys(std::move(model).value(), s.initial);
+// re-solves from the previous equilibrium with the same simulator; per-solve means as counters.
+void WarmResolveSteps(benchmark::State& state, GarmentModel model, const SceneSpec& s, const SolverSettings& settings) {
+  GarmentSystem sys(std::move(model), s.initial);
   Simulator sim(&sys);
   double energy = 0;
-  SolverSettings settings;
-  settings.method = state.range(0) == 2 ? SolverMethod::kLbfgs : SolverMethod::kNewton;
-  settings.reuse_factorization = state.range(0) == 0;
-  settings.project_contact_crossings = state.range(0) != 3;
-  settings.local_steps = state.range(0) != 4;
-  settings.grad_tol = GradTol(state, 1);
   Positions x = s.initial;
   sim.Solve(&x, settings);
   DesignSteps steps_of_design(s.design);
@@ -128,6 +120,18 @@ void BM_WarmResolve(benchmark::State& state) {
   state.counters["failures"] = failures;
   state.counters["last_energy_J"] = energy;
   state.counters["factor_nnz"] = total.factor_nonzeros;
+}
+
+// The warm re-solve on the sleeve (method: see BENCHMARK below).
+void BM_WarmResolve(benchmark::State& state) {
+  const SceneSpec s = Sleeve(true);
+  SolverSettings settings;
+  settings.method = state.range(0) == 2 ? SolverMethod::kLbfgs : SolverMethod::kNewton;
+  settings.reuse_factorization = state.range(0) == 0;
+  settings.project_contact_crossings = state.range(0) != 3;
+  settings.local_steps = state.range(0) != 4;
+  settings.grad_tol = GradTol(state, 1);
+  WarmResolveSteps(state, BuildGarmentModel(s).value(), s, settings);
 }
 // method: 0 Newton reusing factorizations, 1 Newton factorizing every step (the default), 2 L-BFGS,
 // 3 as 1 without the line search's contact projection (SolverSettings::project_contact_crossings),
@@ -281,28 +285,10 @@ BENCHMARK(BM_SmoothCold)
 // solve's first factorization (SolverSettings::reuse_factorization), 1 Newton (the default), 2 L-BFGS.
 void BM_WarmResolveSmooth(benchmark::State& state) {
   const SceneSpec s = Sleeve(true);
-  GarmentSystem sys(SmoothSleeveModel(s), s.initial);
-  Simulator sim(&sys);
   SolverSettings settings;
   settings.method = state.range(0) == 2 ? SolverMethod::kLbfgs : SolverMethod::kNewton;
   settings.reuse_factorization = state.range(0) == 0;
-  Positions x = s.initial;
-  sim.Solve(&x, settings);
-  DesignSteps steps_of_design(s.design);
-  SolveReport total;
-  int steps = 0, failures = 0;
-  for (auto _ : state) {
-    state.PauseTiming();
-    steps_of_design.Next(&sys);
-    state.ResumeTiming();
-    const SolveReport r = sim.Solve(&x, settings);
-    failures += !r.converged();
-    ++steps;
-    AccumulateSolve(&total, r);
-  }
-  ReportMeans(state, total, steps);
-  state.counters["pcg_solves"] = double(total.pcg_solves) / steps;
-  state.counters["failures"] = failures;
+  WarmResolveSteps(state, SmoothSleeveModel(s), s, settings);
 }
 BENCHMARK(BM_WarmResolveSmooth)
     ->DenseRange(0, 2)

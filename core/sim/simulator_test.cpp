@@ -19,6 +19,16 @@ SceneSpec SmallSleeve() {
   return SleeveOnLimbScene(o);
 }
 
+// A fully reinforced sleeve whose rest shape is the limb's surface, as the design loop starts.
+SceneSpec ReinforcedSleeveOnItsRestShape() {
+  SleeveOptions o;
+  o.around = 32;
+  o.sleeve_halflength_m = 0.10;
+  o.rest_on_body = true;
+  o.reinforced = true;
+  return SleeveOnLimbScene(o);
+}
+
 TEST(Simulator, NewtonConvergesAndEnergyDecreases) {
   SceneSpec s = SmallSleeve();
   auto model = BuildGarmentModel(s);
@@ -77,12 +87,7 @@ TEST(Simulator, WarmResolveAfterADesignChangeReusesTheFactorization) {
 // Where the energy is smooth (no relaxation, bilateral contact) the Hessian changes little between a
 // re-solve's steps: one factorization at its first step, and PCG on it for every later step.
 TEST(Simulator, OnASmoothSceneAReSolveFactorizesOnceAndReusesItWithinTheSolve) {
-  SleeveOptions o;
-  o.around = 32;
-  o.sleeve_halflength_m = 0.10;
-  o.rest_on_body = true;
-  o.reinforced = true;
-  const SceneSpec s = SleeveOnLimbScene(o);
+  const SceneSpec s = ReinforcedSleeveOnItsRestShape();
   auto model = BuildGarmentModel(s);
   ASSERT_TRUE(model.ok());
   model.value().effects.relaxation = Relaxation::kNone;
@@ -125,12 +130,7 @@ struct BesoLikeRun {
   std::vector<double> warm_energies;  // J, after each re-solve
 };
 BesoLikeRun BesoLikeResolves(const SolverSettings& settings) {
-  SleeveOptions o;
-  o.around = 32;
-  o.sleeve_halflength_m = 0.10;
-  o.rest_on_body = true;
-  o.reinforced = true;
-  const SceneSpec s = SleeveOnLimbScene(o);
+  const SceneSpec s = ReinforcedSleeveOnItsRestShape();
   auto model = BuildGarmentModel(s);
   EXPECT_TRUE(model.ok());
   GarmentSystem sys(std::move(model).value(), s.initial);
