@@ -19,6 +19,7 @@
 #include "proto/job_spec.h"
 #include "proto/records.h"
 #include "core/beso/baselines.h"
+#include "job/design_job.h"
 #include "core/beso/design_loop.h"
 #include "core/mesh/mesh_io.h"
 #include "core/scene/simulate.h"
@@ -39,45 +40,11 @@ struct DesignOptions {
   bool json = false, verbose = false;
 };
 
-std::vector<std::string> SplitWords(const std::string& s) {
-  std::istringstream in(s);
-  std::vector<std::string> out;
-  for (std::string w; in >> w;) out.push_back(w);
-  return out;
-}
-
-std::string JoinWords(const std::vector<std::string>& words) {
-  std::string s;
-  for (const std::string& w : words) s += (s.empty() ? "" : " ") + w;
-  return s;
-}
-
 // The scene a design file was made from, rebuilt and checked against the garment the file stores.
 Result<SceneSpec> SceneOfDesignFile(const std::string& path, const DesignFileHeader& h) {
   Result<SceneSpec> scene = ResolveScene(h.scene, SplitWords(h.body));
   if (!scene.ok()) return Status::Error(path + ": the job's scene '" + h.scene + "' cannot be rebuilt: " + scene.message());
-  // What differs first, so that the user can find it (an edited mesh, another kgd, a damaged file).
-  std::string differs;
-  auto first_row = [](const auto& now, const auto& stored) {
-    for (Eigen::Index r = 0; r < now.rows(); ++r)
-      if (!(now.row(r) == stored.row(r))) return r;
-    return Eigen::Index(-1);
-  };
-  if (scene->garment.vertices.rows() != h.garment.vertices.rows() || scene->garment.faces.rows() != h.garment.faces.rows() ||
-      scene->initial.rows() != h.initial.rows()) {
-    differs = std::to_string(scene->garment.vertices.rows()) + " vertices and " + std::to_string(scene->garment.faces.rows()) +
-              " faces now, " + std::to_string(h.garment.vertices.rows()) + " and " + std::to_string(h.garment.faces.rows()) +
-              " stored";
-  } else if (Eigen::Index f = first_row(scene->garment.faces, h.garment.faces); f >= 0) {
-    differs = "face " + std::to_string(f) + " has other vertices";
-  } else if (Eigen::Index v = first_row(scene->garment.vertices, h.garment.vertices); v >= 0) {
-    differs = "rest vertex " + std::to_string(v) + " moved";
-  } else if (Eigen::Index v = first_row(scene->initial, h.initial); v >= 0) {
-    differs = "initial (on-body) vertex " + std::to_string(v) + " moved";
-  }
-  if (!differs.empty())
-    return Status::Error(path + ": the scene '" + h.scene + "' no longer gives the garment stored in the file (" + differs +
-                         "); was the scene file or kgd changed?");
+  KGD_RETURN_IF_ERROR(CheckStoredGarment(*scene, h, path));
   return scene;
 }
 
@@ -102,9 +69,7 @@ int RunDesign(const DesignOptions& o) {
   if (!resume && o.scene.empty()) return Fail("design", "give a scene (a built-in name or a scene file), or --resume FILE");
   if (resume && !o.scene.empty()) return Fail("design", "give either a scene or --resume FILE, not both");
 
-  DesignFileHeader header;
-  SceneSpec scene;
-  std::vector<BesoIteration> stored;
+  Result<DesignJob> job = Status::Error("");
   std::unique_ptr<DesignFileWriter> writer;
   std::string path;
   if (resume) {
@@ -117,39 +82,30 @@ int RunDesign(const DesignOptions& o) {
     const int n = writer->num_iterations();
     Result<DesignFile> file = ReadDesignFile(path, {.arrays = true, .only_iteration = n - 1});
     if (!file.ok()) return Fail("design", file.message());
-    header = file->header;
-    stored = std::move(file->iterations);
-    if (optimizer.has_max_iterations()) header.settings.max_iterations = optimizer.max_iterations();
-    if (Status st = ValidateBesoSettings(header.settings); !st.ok()) return Fail("design", st.message());
-    Result<SceneSpec> s = SceneOfDesignFile(path, header);
-    if (!s.ok()) return Fail("design", s.message());
-    scene = std::move(s).value();
+    Result<SceneSpec> scene = SceneOfDesignFile(path, file->header);
+    if (!scene.ok()) return Fail("design", scene.message());
+    job = ResumeDesignJob(std::move(scene).value(), std::move(file->header), std::move(file->iterations), path,
+                          optimizer.has_max_iterations() ? optimizer.max_iterations() : 0);
+    if (!job.ok()) return Fail("design", job.message());
   } else {
-    Result<SceneSpec> s = ResolveScene(o.scene, o.body);
-    if (!s.ok()) return Fail("design", s.message());
-    scene = std::move(s).value();
-    Result<BesoSettings> settings = SettingsOfJob(optimizer, scene.budget);
-    if (!settings.ok()) return Fail("design", settings.message());
-    header.settings = *settings;
-    header.scene = std::filesystem::exists(o.scene) ? std::filesystem::absolute(o.scene).string() : o.scene;
-    header.body = JoinWords(o.body);
-    header.garment = scene.garment;
-    header.initial = scene.initial;
-    header.rest_area_m2 = FaceAreas(scene.garment.vertices, scene.garment.faces);
-    header.attachment_faces = scene.attachment_faces;
-    path = o.out.empty() ? scene.name + ".h5" : o.out;
-    Result<std::unique_ptr<DesignFileWriter>> w = DesignFileWriter::Create(path, header);
+    Result<SceneSpec> scene = ResolveScene(o.scene, o.body);
+    if (!scene.ok()) return Fail("design", scene.message());
+    const std::string name = scene->name;
+    job = NewDesignJob(std::move(scene).value(), optimizer,
+                       std::filesystem::exists(o.scene) ? std::filesystem::absolute(o.scene).string() : o.scene, JoinWords(o.body));
+    if (!job.ok()) return Fail("design", job.message());
+    path = o.out.empty() ? name + ".h5" : o.out;
+    Result<std::unique_ptr<DesignFileWriter>> w = DesignFileWriter::Create(path, job->header);
     if (!w.ok()) return Fail("design", w.message());
     writer = std::move(w).value();
   }
-  ApplySolverOverrides(optimizer, &scene.solver);
+  SceneSpec& scene = job->scene;
   if (o.verbose)
     scene.solver.on_iteration = [](const IterationInfo& i) {
       std::fprintf(stderr, "  newton %4d  E %.12g J  |g| %.3e N  alpha %.3g  delta %.3g%s\n", i.iteration, i.energy_J, i.grad_norm_N,
                    i.step_length, i.regularization, i.used_pcg ? "  (pcg)" : i.local ? "  (local)" : "");
     };
-  const BesoSettings& settings = header.settings;
-  const double garment_area = header.rest_area_m2.sum(), final_area = settings.budget * garment_area;
+  const BesoSettings& settings = job->settings();
   const bool bar = !o.json && isatty(STDOUT_FILENO);
   g_interrupted = false;
   std::signal(SIGINT, OnInterrupt);
@@ -161,8 +117,8 @@ int RunDesign(const DesignOptions& o) {
   double elapsed = 0;
   // Metrics of the last iteration stored (arrays are not needed for the summary).
   BesoIteration end;
-  if (!stored.empty()) {
-    end = stored.back();
+  if (!job->history.empty()) {
+    end = job->history.back();
     end.positions.resize(0, 3);
   }
   auto on_iteration = [&](const BesoIteration& it) {
@@ -173,11 +129,7 @@ int RunDesign(const DesignOptions& o) {
     double mean = 0;
     for (double t : recent) mean += t;
     mean /= recent.size();
-    // Iterations left: to shrink the target to the budget at ER per iteration, then the stop window.
-    int left = settings.converge_window;
-    if (it.target_area_m2 > final_area * (1 + 1e-12))
-      left += static_cast<int>(std::ceil(std::log(final_area / it.target_area_m2) / std::log(1 - settings.evolutionary_ratio)));
-    left = std::min(left, settings.max_iterations - it.iteration);
+    const int left = IterationsLeft(*job, it);
     if (bar) {
       const double done = 1.0 - static_cast<double>(left) / (it.iteration + left);
       const int width = 24, filled = static_cast<int>(done * width);
@@ -196,7 +148,7 @@ int RunDesign(const DesignOptions& o) {
     end.reinforced_density_J_per_m2 = it.reinforced_density_J_per_m2;
     return write_status.ok() && !g_interrupted;
   };
-  const Result<std::vector<BesoIteration>> run = RunBeso(scene, settings, on_iteration, stored.empty() ? nullptr : &stored);
+  const Result<std::vector<BesoIteration>> run = RunDesignJob(*job, on_iteration);
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   if (bar) std::printf("\n");

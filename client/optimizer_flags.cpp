@@ -1,16 +1,30 @@
 #include "client/optimizer_flags.h"
 
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <type_traits>
 
 namespace kgd::cli {
 namespace {
+
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 bool Given(double v) { return !std::isnan(v); }
 bool Given(int v) { return v != OptimizerFlags::kUnset; }
+void Unset(double* v) { *v = kNaN; }
+void Unset(int* v) { *v = OptimizerFlags::kUnset; }
+
+void Set(const google::protobuf::FieldDescriptor* f, double v, v1::OptimizerSettings* s) { s->GetReflection()->SetDouble(s, f, v); }
+void Set(const google::protobuf::FieldDescriptor* f, int v, v1::OptimizerSettings* s) { s->GetReflection()->SetInt32(s, f, v); }
+
 }  // namespace
 
-OptimizerFlags::OptimizerFlags() : budget(kNaN), er(kNaN), ar(kNaN), penalty(kNaN), d_min(kNaN), tau(kNaN), grad_tol(kNaN) {}
+OptimizerFlags::OptimizerFlags() {
+#define KGD_UNSET_FLAG(type, name, default_value, flag, help) Unset(&name);
+  KGD_BESO_VALUES(KGD_UNSET_FLAG)
+#undef KGD_UNSET_FLAG
+  Unset(&grad_tol);
+}
 
 void AddOptimizerFlags(CLI::App* d, OptimizerFlags* o) {
   // NaN marks a flag as not given, so "--budget nan" must not pass as one; infinities are no setting either.
@@ -20,21 +34,14 @@ void AddOptimizerFlags(CLI::App* d, OptimizerFlags* o) {
         return CLI::detail::lexical_cast(text, v) && std::isfinite(v) ? std::string() : "'" + text + "' is not a finite number";
       },
       "FINITE");
-  d->add_option("--budget", o->budget, "Reinforced area at the end, as a fraction of the garment area, in (0, 1] (default: the scene's)")
-      ->check(finite);
-  d->add_option("--iterations", o->iterations, "Stop after this BESO iteration at the latest (default 400)");
-  d->add_option("--er", o->er, "Evolutionary ratio ER: the target area shrinks by this fraction per iteration (default 0.015)")
-      ->check(finite);
-  d->add_option("--ar-max", o->ar, "Admission limit AR_max: at most this fraction of the garment turns reinforced per iteration (default 0.015)")
-      ->check(finite);
-  d->add_option("--penalty", o->penalty, "Interpolation exponent p, >= 1 (default 1.6)")->check(finite);
-  d->add_option("--d-min", o->d_min, "Design value of the soft material in the sensitivity formula (default 0.001)")->check(finite);
-  d->add_option("--tau", o->tau, "Stop when the objective changes by less than tau (relative) ... (default 1e-3)")->check(finite);
-  d->add_option("--window", o->window, "... over this many iterations, with the budget reached (default 5)");
-  d->add_flag("--keep-attachments", o->keep_attachments, "Attachment triangles stay reinforced");
-  d->add_flag("--no-averaging", o->no_averaging, "No temporal averaging of the sensitivities");
-  d->add_flag("--average-with-raw", o->average_with_raw,
-              "Average with the previous iteration's filtered, not averaged, sensitivities (the authors' code)");
+#define KGD_ADD_VALUE_FLAG(type, name, default_value, flag, help)        \
+  if constexpr (std::is_same_v<type, double>) d->add_option(flag, o->name, help)->check(finite); \
+  else d->add_option(flag, o->name, help);
+  KGD_BESO_VALUES(KGD_ADD_VALUE_FLAG)
+#undef KGD_ADD_VALUE_FLAG
+#define KGD_ADD_SWITCH_FLAG(name, default_value, flag, proto_field, help) d->add_flag(flag, o->name, help);
+  KGD_BESO_SWITCHES(KGD_ADD_SWITCH_FLAG)
+#undef KGD_ADD_SWITCH_FLAG
   d->add_option("--max-newton", o->max_newton, "Solver iteration limit per BESO iteration (default 200)")->check(CLI::PositiveNumber);
   d->add_option("--grad-tol", o->grad_tol, "Solver gradient tolerance, dimensionless (default 1e-4, see docs/MODEL.md)")
       ->check(CLI::PositiveNumber & finite);
@@ -42,25 +49,28 @@ void AddOptimizerFlags(CLI::App* d, OptimizerFlags* o) {
 
 v1::OptimizerSettings ToProto(const OptimizerFlags& o) {
   v1::OptimizerSettings s;
-  if (Given(o.budget)) s.set_budget(o.budget);
-  if (Given(o.er)) s.set_evolutionary_ratio(o.er);
-  if (Given(o.ar)) s.set_admission_ratio(o.ar);
-  if (Given(o.penalty)) s.set_penalty(o.penalty);
-  if (Given(o.d_min)) s.set_d_min(o.d_min);
-  if (Given(o.tau)) s.set_tau(o.tau);
-  if (Given(o.window)) s.set_converge_window(o.window);
-  if (Given(o.iterations)) s.set_max_iterations(o.iterations);
+  const google::protobuf::Descriptor* d = s.GetDescriptor();
+#define KGD_VALUE_TO_PROTO(type, name, default_value, flag, help) \
+  if (Given(o.name)) Set(d->FindFieldByName(#name), o.name, &s);
+  KGD_BESO_VALUES(KGD_VALUE_TO_PROTO)
+#undef KGD_VALUE_TO_PROTO
+#define KGD_SWITCH_TO_PROTO(name, default_value, flag, proto_field, help) s.set_##proto_field(o.name);
+  KGD_BESO_SWITCHES(KGD_SWITCH_TO_PROTO)
+#undef KGD_SWITCH_TO_PROTO
   if (Given(o.max_newton)) s.set_max_newton_iterations(o.max_newton);
   if (Given(o.grad_tol)) s.set_grad_tol(o.grad_tol);
-  s.set_keep_attachments(o.keep_attachments);
-  s.set_no_temporal_averaging(o.no_averaging);
-  s.set_average_with_raw(o.average_with_raw);
   return s;
 }
 
 bool AnyDesignFlagGiven(const OptimizerFlags& o) {
-  return Given(o.budget) || Given(o.er) || Given(o.ar) || Given(o.penalty) || Given(o.d_min) || Given(o.tau) || Given(o.window) ||
-         o.keep_attachments || o.no_averaging || o.average_with_raw;
+  bool any = false;
+#define KGD_VALUE_GIVEN(type, name, default_value, flag, help) any |= std::strcmp(#name, "max_iterations") != 0 && Given(o.name);
+  KGD_BESO_VALUES(KGD_VALUE_GIVEN)
+#undef KGD_VALUE_GIVEN
+#define KGD_SWITCH_GIVEN(name, default_value, flag, proto_field, help) any |= o.name;
+  KGD_BESO_SWITCHES(KGD_SWITCH_GIVEN)
+#undef KGD_SWITCH_GIVEN
+  return any;
 }
 
 }  // namespace kgd::cli

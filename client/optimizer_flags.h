@@ -1,26 +1,34 @@
 // The optimizer's command-line flags, shared by `kgd design` (local) and `kgd submit` (service): both
 // turn them into a kgd.v1.OptimizerSettings and from there into BESO settings (proto/job_spec.h), so a
-// job gives the same design run either way.
+// job gives the same design run either way. The BESO flags come from the settings lists of
+// core/beso/beso.h (KGD_BESO_VALUES, KGD_BESO_SWITCHES); two solver flags follow them.
 #pragma once
 
 #include <CLI/CLI.hpp>
 
+#include "core/beso/beso.h"
 #include "kgd/v1/kgd.pb.h"
 
 namespace kgd::cli {
 
 struct OptimizerFlags {
-  // Unset: NaN / unset_int (a value given, even a bad one, is passed on and then validated).
+  // Unset: NaN / kUnset (a value given, even a bad one, is passed on and then validated).
   static constexpr int kUnset = -2147483647 - 1;
-  double budget, er, ar, penalty, d_min, tau, grad_tol;
-  int iterations = kUnset, window = kUnset, max_newton = kUnset;
-  bool keep_attachments = false, no_averaging = false, average_with_raw = false;
+#define KGD_DECLARE_VALUE_FLAG(type, name, default_value, flag, help) type name;
+  KGD_BESO_VALUES(KGD_DECLARE_VALUE_FLAG)
+#undef KGD_DECLARE_VALUE_FLAG
+  // A switch's member is true when its flag was given (the switch turned away from its default).
+#define KGD_DECLARE_SWITCH_FLAG(name, default_value, flag, proto_field, help) bool name = false;
+  KGD_BESO_SWITCHES(KGD_DECLARE_SWITCH_FLAG)
+#undef KGD_DECLARE_SWITCH_FLAG
+  double grad_tol;
+  int max_newton = kUnset;
   OptimizerFlags();
 };
 
 void AddOptimizerFlags(CLI::App* command, OptimizerFlags* flags);
 v1::OptimizerSettings ToProto(const OptimizerFlags& flags);
-// True when any flag other than --iterations, --max-newton and --grad-tol was given.
+// True when any BESO flag other than --iterations was given (the solver flags do not count).
 bool AnyDesignFlagGiven(const OptimizerFlags& flags);
 
 }  // namespace kgd::cli

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <type_traits>
 #include <sstream>
 
 namespace kgd {
@@ -68,19 +69,49 @@ std::string SceneJson(const v1::Scene& scene) {
   return text;
 }
 
+namespace {
+template <typename T>
+T ReflectedValue(const google::protobuf::Reflection* r, const v1::OptimizerSettings& o, const google::protobuf::FieldDescriptor* f) {
+  if constexpr (std::is_same_v<T, int>) return r->GetInt32(o, f);
+  else return r->GetDouble(o, f);
+}
+}  // namespace
+
+Status CheckSettingsFields() {
+  using google::protobuf::FieldDescriptor;
+  const google::protobuf::Descriptor* d = v1::OptimizerSettings::descriptor();
+  auto check = [&](const char* name, FieldDescriptor::CppType type, bool optional) -> Status {
+    const FieldDescriptor* f = d->FindFieldByName(name);
+    if (!f || f->cpp_type() != type || f->has_presence() != optional)
+      return Status::Error(std::string("kgd.v1.OptimizerSettings.") + name + " is missing or of another kind");
+    return Status::Ok();
+  };
+#define KGD_CHECK_VALUE(type, name, default_value, flag, help) \
+  KGD_RETURN_IF_ERROR(check(#name, std::is_same_v<type, int> ? FieldDescriptor::CPPTYPE_INT32 : FieldDescriptor::CPPTYPE_DOUBLE, true));
+  KGD_BESO_VALUES(KGD_CHECK_VALUE)
+#undef KGD_CHECK_VALUE
+#define KGD_CHECK_SWITCH(name, default_value, flag, proto_field, help) \
+  KGD_RETURN_IF_ERROR(check(#proto_field, FieldDescriptor::CPPTYPE_BOOL, false));
+  KGD_BESO_SWITCHES(KGD_CHECK_SWITCH)
+#undef KGD_CHECK_SWITCH
+  return Status::Ok();
+}
+
 Result<BesoSettings> SettingsOfJob(const v1::OptimizerSettings& o, double scene_budget) {
   BesoSettings s;
-  s.budget = o.has_budget() ? o.budget() : (scene_budget < 1 ? scene_budget : s.budget);
-  if (o.has_evolutionary_ratio()) s.evolutionary_ratio = o.evolutionary_ratio();
-  if (o.has_admission_ratio()) s.admission_ratio = o.admission_ratio();
-  if (o.has_penalty()) s.penalty = o.penalty();
-  if (o.has_d_min()) s.d_min = o.d_min();
-  if (o.has_tau()) s.tau = o.tau();
-  if (o.has_converge_window()) s.converge_window = o.converge_window();
-  if (o.has_max_iterations()) s.max_iterations = o.max_iterations();
-  s.keep_attachments = o.keep_attachments();
-  s.temporal_averaging = !o.no_temporal_averaging();
-  s.average_with_raw = o.average_with_raw();
+  s.budget = scene_budget < 1 ? scene_budget : s.budget;
+  const google::protobuf::Reflection* r = o.GetReflection();
+  const google::protobuf::Descriptor* d = o.GetDescriptor();
+  // Set values replace the defaults; switches given turn away from them.
+#define KGD_VALUE_OF_JOB(type, name, default_value, flag, help)          \
+  if (const google::protobuf::FieldDescriptor* f = d->FindFieldByName(#name); f && r->HasField(o, f)) \
+    s.name = ReflectedValue<type>(r, o, f);
+  KGD_BESO_VALUES(KGD_VALUE_OF_JOB)
+#undef KGD_VALUE_OF_JOB
+#define KGD_SWITCH_OF_JOB(name, default_value, flag, proto_field, help) \
+  if (const google::protobuf::FieldDescriptor* f = d->FindFieldByName(#proto_field); f && r->GetBool(o, f)) s.name = !(default_value);
+  KGD_BESO_SWITCHES(KGD_SWITCH_OF_JOB)
+#undef KGD_SWITCH_OF_JOB
   if (Status st = ValidateBesoSettings(s); !st.ok()) return st;
   if (o.has_max_newton_iterations() && o.max_newton_iterations() < 1)
     return Status::Error("max_newton_iterations = " + std::to_string(o.max_newton_iterations()) + " must be >= 1");

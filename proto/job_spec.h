@@ -18,6 +18,10 @@ namespace kgd {
 // "spec.optimizer.budget: 1.5 is outside (0, 1]".
 Status ValidateJobSpec(const v1::JobSpec& spec);
 
+// Every KGD_BESO_VALUES entry (core/beso/beso.h) has its optional kgd.v1.OptimizerSettings field of
+// the same name and type, and every KGD_BESO_SWITCHES entry its bool field.
+Status CheckSettingsFields();
+
 // The BESO settings of a spec for a scene whose own budget is `scene_budget` (1: none): unset fields
 // take the defaults, the budget the scene's. Errors name the field (as ValidateJobSpec).
 Result<BesoSettings> SettingsOfJob(const v1::OptimizerSettings& optimizer, double scene_budget);

@@ -2,6 +2,8 @@
 // scene file and its meshes whole, and iterations survive the trip through their messages bit for bit.
 #include "proto/job_spec.h"
 
+#include <set>
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -189,6 +191,41 @@ TEST(SceneSchema, TheSchemaAndTheLoaderKnowTheSameKeys) {
   EXPECT_NE(wrong_type.message().find("budget"), std::string::npos) << wrong_type.message();
 }
 
+// The schema carries every BESO setting; a setting added to the lists without its field fails here.
+TEST(JobSpec, EverySettingHasItsFieldInTheSchema) {
+  const Status st = CheckSettingsFields();
+  EXPECT_TRUE(st.ok()) << st.message();
+  // Each value and switch set in a spec arrives in the settings.
+  v1::OptimizerSettings o;
+  o.set_tau(2e-3);
+  o.set_converge_window(7);
+  o.set_no_temporal_averaging(true);
+  o.set_keep_attachments(true);
+  Result<BesoSettings> s = SettingsOfJob(o, 0.3);
+  ASSERT_TRUE(s.ok()) << s.message();
+  EXPECT_EQ(s->tau, 2e-3);
+  EXPECT_EQ(s->converge_window, 7);
+  EXPECT_EQ(s->budget, 0.3);
+  EXPECT_FALSE(s->temporal_averaging);
+  EXPECT_TRUE(s->keep_attachments);
+  EXPECT_FALSE(s->average_with_raw);
+}
+
+// The schema carries every figure of the metric list under its name and type; a metric added to the
+// list without its proto field fails here.
+TEST(Records, EveryMetricHasItsFieldInTheSchema) {
+  const Status st = CheckMetricFields();
+  EXPECT_TRUE(st.ok()) << st.message();
+  // Every IterationMetrics field is a listed metric, the iteration, the status, or the report time
+  // (the service's own).
+  const google::protobuf::Descriptor* d = v1::IterationMetrics::descriptor();
+  std::set<std::string> listed = {"iteration", "solve_status", "report_time_s"};
+#define KGD_LIST_METRIC(type, name, what) listed.insert(#name);
+  KGD_BESO_METRICS(KGD_LIST_METRIC)
+#undef KGD_LIST_METRIC
+  for (int i = 0; i < d->field_count(); ++i) EXPECT_TRUE(listed.count(d->field(i)->name())) << d->field(i)->name() << " is not in KGD_BESO_METRICS";
+}
+
 TEST(Records, IterationsRoundTripBitForBit) {
   Result<SceneSpec> scene = PullTestScene("all_cloth");
   BesoSettings settings;
@@ -199,9 +236,12 @@ TEST(Records, IterationsRoundTripBitForBit) {
   for (const BesoIteration& it : *run) {
     Result<BesoIteration> back = RecordFromProto(RecordToProto(it), faces, vertices);
     ASSERT_TRUE(back.ok()) << back.message();
-    EXPECT_EQ(back->energy_J, it.energy_J);
-    EXPECT_EQ(back->density_ratio, it.density_ratio);
+    EXPECT_EQ(back->iteration, it.iteration);
     EXPECT_EQ(back->status, it.status);
+    // Every figure of the metric list, whatever its type.
+#define KGD_EXPECT_METRIC(type, name, what) EXPECT_EQ(back->name, it.name) << #name;
+    KGD_BESO_METRICS(KGD_EXPECT_METRIC)
+#undef KGD_EXPECT_METRIC
     EXPECT_EQ(back->design, it.design);
     EXPECT_TRUE(back->positions == it.positions);
     EXPECT_TRUE(back->energy_density_Pa == it.energy_density_Pa);

@@ -1,6 +1,7 @@
 #include "proto/records.h"
 
 #include <string>
+#include <type_traits>
 
 namespace kgd {
 namespace {
@@ -24,46 +25,61 @@ Result<SolveStatus> StatusFromName(const std::string& name) {
   return Status::Error("metrics.solve_status: unknown status '" + name + "'");
 }
 
+// The IterationMetrics field of a KGD_BESO_METRICS entry; null (the value is then not carried) only
+// when the schema lacks it, which CheckMetricFields reports.
+const google::protobuf::FieldDescriptor* MetricField(const char* name) { return v1::IterationMetrics::descriptor()->FindFieldByName(name); }
+
+void SetField(const google::protobuf::Reflection* r, v1::IterationMetrics* m, const google::protobuf::FieldDescriptor* f, double v) {
+  if (f) r->SetDouble(m, f, v);
+}
+void SetField(const google::protobuf::Reflection* r, v1::IterationMetrics* m, const google::protobuf::FieldDescriptor* f, int v) {
+  if (f) r->SetInt32(m, f, v);
+}
+void GetField(const google::protobuf::Reflection* r, const v1::IterationMetrics& m, const google::protobuf::FieldDescriptor* f, double* v) {
+  if (f) *v = r->GetDouble(m, f);
+}
+void GetField(const google::protobuf::Reflection* r, const v1::IterationMetrics& m, const google::protobuf::FieldDescriptor* f, int* v) {
+  if (f) *v = r->GetInt32(m, f);
+}
+
 }  // namespace
+
+Status CheckMetricFields() {
+  const google::protobuf::Descriptor* d = v1::IterationMetrics::descriptor();
+  using google::protobuf::FieldDescriptor;
+  auto check = [&](const char* name, FieldDescriptor::CppType type) -> Status {
+    const FieldDescriptor* f = d->FindFieldByName(name);
+    if (!f) return Status::Error(std::string("kgd.v1.IterationMetrics has no field '") + name + "'");
+    if (f->cpp_type() != type) return Status::Error(std::string("kgd.v1.IterationMetrics.") + name + " has another type");
+    return Status::Ok();
+  };
+#define KGD_CHECK_METRIC(type, name, what)                                                                                          \
+  KGD_RETURN_IF_ERROR(check(#name, std::is_same_v<type, int> ? FieldDescriptor::CPPTYPE_INT32 : FieldDescriptor::CPPTYPE_DOUBLE));
+  KGD_BESO_METRICS(KGD_CHECK_METRIC)
+#undef KGD_CHECK_METRIC
+  return Status::Ok();
+}
 
 v1::IterationMetrics MetricsToProto(const BesoIteration& it) {
   v1::IterationMetrics m;
   m.set_iteration(it.iteration);
-  m.set_target_area_m2(it.target_area_m2);
-  m.set_area_fraction(it.area_fraction);
-  m.set_energy_j(it.energy_J);
-  m.set_reinforced_energy_j(it.reinforced_energy_J);
-  m.set_reinforced_density_j_per_m2(it.reinforced_density_J_per_m2);
-  m.set_density_ratio(it.density_ratio);
   m.set_solve_status(ToString(it.status));
-  m.set_solver_iterations(it.solver_iterations);
-  m.set_cold_restart(it.cold_restart);
-  m.set_simulation_s(it.simulation_s);
-  m.set_sensitivity_s(it.sensitivity_s);
-  m.set_filter_s(it.filter_s);
-  m.set_update_s(it.update_s);
-  m.set_total_s(it.total_s);
+  const google::protobuf::Reflection* r = m.GetReflection();
+#define KGD_METRIC_TO_PROTO(type, name, what) SetField(r, &m, MetricField(#name), it.name);
+  KGD_BESO_METRICS(KGD_METRIC_TO_PROTO)
+#undef KGD_METRIC_TO_PROTO
   return m;
 }
 
 BesoIteration MetricsFromProto(const v1::IterationMetrics& m) {
   BesoIteration it;
   it.iteration = m.iteration();
-  it.target_area_m2 = m.target_area_m2();
-  it.area_fraction = m.area_fraction();
-  it.energy_J = m.energy_j();
-  it.reinforced_energy_J = m.reinforced_energy_j();
-  it.reinforced_density_J_per_m2 = m.reinforced_density_j_per_m2();
-  it.density_ratio = m.density_ratio();
   Result<SolveStatus> st = StatusFromName(m.solve_status());
   it.status = st.ok() ? *st : SolveStatus::kInvalidState;
-  it.solver_iterations = m.solver_iterations();
-  it.cold_restart = m.cold_restart();
-  it.simulation_s = m.simulation_s();
-  it.sensitivity_s = m.sensitivity_s();
-  it.filter_s = m.filter_s();
-  it.update_s = m.update_s();
-  it.total_s = m.total_s();
+  const google::protobuf::Reflection* r = m.GetReflection();
+#define KGD_METRIC_FROM_PROTO(type, name, what) GetField(r, m, MetricField(#name), &it.name);
+  KGD_BESO_METRICS(KGD_METRIC_FROM_PROTO)
+#undef KGD_METRIC_FROM_PROTO
   return it;
 }
 

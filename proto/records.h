@@ -8,6 +8,10 @@
 
 namespace kgd {
 
+// Every KGD_BESO_METRICS entry (core/beso/design_loop.h) has its kgd.v1.IterationMetrics field of the
+// same name and type; the conversions below carry the metrics by that list.
+Status CheckMetricFields();
+
 v1::IterationMetrics MetricsToProto(const BesoIteration& it);
 // Metrics only (arrays empty).
 BesoIteration MetricsFromProto(const v1::IterationMetrics& m);

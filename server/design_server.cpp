@@ -4,441 +4,64 @@
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 
-#include <algorithm>
-#include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <cstdio>
-#include <filesystem>
-#include <map>
-#include <mutex>
-#include <nlohmann/json.hpp>
-#include <thread>
 
 #include "kgd/v1/kgd.grpc.pb.h"
-#include "proto/job_spec.h"
-#include "proto/records.h"
-#include "server/job_store.h"
-#include "store/design_file.h"
 
 namespace kgd::server {
-namespace fs = std::filesystem;
 using grpc::ServerContext;
-using grpc::StatusCode;
 
 namespace {
 
-double Now() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
+grpc::Status ToGrpc(const ServiceStatus& st) {
+  return st.ok() ? grpc::Status::OK : grpc::Status(static_cast<grpc::StatusCode>(st.code), st.message);
+}
 
-grpc::Status Internal(const Status& st) { return grpc::Status(StatusCode::INTERNAL, st.message()); }
+// DesignService and WorkerService: each call is the job service's, with the context's cancellation.
+class GrpcServices final : public v1::DesignService::Service, public v1::WorkerService::Service {
+ public:
+  explicit GrpcServices(JobService* service) : service_(*service) {}
+
+  grpc::Status CreateJob(ServerContext*, const v1::CreateJobRequest* req, v1::Job* out) override {
+    return ToGrpc(service_.CreateJob(*req, out));
+  }
+  grpc::Status GetJob(ServerContext*, const v1::GetJobRequest* req, v1::Job* out) override { return ToGrpc(service_.GetJob(req->id(), out)); }
+  grpc::Status ListJobs(ServerContext*, const v1::ListJobsRequest* req, v1::ListJobsResponse* out) override {
+    return ToGrpc(service_.ListJobs(*req, out));
+  }
+  grpc::Status CancelJob(ServerContext*, const v1::CancelJobRequest* req, v1::Job* out) override {
+    return ToGrpc(service_.CancelJob(req->id(), out));
+  }
+  grpc::Status GetIteration(ServerContext*, const v1::GetIterationRequest* req, v1::GetIterationResponse* out) override {
+    return ToGrpc(service_.GetIteration(*req, out));
+  }
+  grpc::Status WatchJob(ServerContext* ctx, const v1::WatchJobRequest* req, grpc::ServerWriter<v1::WatchJobEvent>* writer) override {
+    return ToGrpc(service_.WatchJob(
+        *req, [writer](const v1::WatchJobEvent& ev) { return writer->Write(ev); }, [ctx] { return ctx->IsCancelled(); }));
+  }
+
+  grpc::Status LeaseJob(ServerContext* ctx, const v1::LeaseJobRequest* req, v1::LeaseJobResponse* out) override {
+    return ToGrpc(service_.LeaseJob(*req, out, [ctx] { return ctx->IsCancelled(); }));
+  }
+  grpc::Status RunJob(ServerContext* ctx, grpc::ServerReaderWriter<v1::ServerMessage, v1::WorkerMessage>* stream) override {
+    return ToGrpc(service_.RunJob([stream](v1::WorkerMessage* m) { return stream->Read(m); },
+                                  [stream](const v1::ServerMessage& m) { return stream->Write(m); }, [ctx] { return ctx->IsCancelled(); }));
+  }
+
+ private:
+  JobService& service_;
+};
 
 }  // namespace
 
-struct DesignServer::Impl : v1::DesignService::Service, v1::WorkerService::Service {
+struct DesignServer::Impl {
   ServerOptions options;
-  std::unique_ptr<JobStore> store;
+  std::unique_ptr<JobService> service;
+  std::unique_ptr<GrpcServices> services;
   std::unique_ptr<grpc::Server> server;
   int port = 0;
-
-  // Commits (HDF5 + SQLite), leases and the open design files go through commit_mu.
-  std::mutex commit_mu;
-  // A job's open design file belongs to one lease: a stream whose lease was lost (expired, re-leased)
-  // can neither write to nor close the file of the lease that replaced it.
-  struct OpenFile {
-    std::string lease_id;
-    std::unique_ptr<DesignFileWriter> writer;
-  };
-  std::map<int64_t, OpenFile> files;
-
-  // Anything a watcher or a waiting worker may care about bumps `version`.
-  std::mutex event_mu;
-  std::condition_variable event_cv;
-  uint64_t version = 0;
-
-  // The latest committed iterations (metrics and design), so that many watchers of a running job share
-  // one copy instead of each reading SQLite. Bounded; older iterations come from the store.
-  std::mutex recent_mu;
-  std::map<std::pair<int64_t, int>, std::shared_ptr<const v1::IterationRecord>> recent;
-  static constexpr size_t kRecentLimit = 512;
-
-  std::atomic<bool> draining{false}, stopping{false};
-  std::atomic<int> active_streams{0};
-  std::thread expiry;
-  std::mutex shutdown_mu;
   bool shut = false;
-
-  void Log(const std::string& line) {
-    if (!options.quiet) std::fprintf(stderr, "kgd-server: %s\n", line.c_str());
-  }
-
-  void Notify() {
-    {
-      std::lock_guard lock(event_mu);
-      ++version;
-    }
-    event_cv.notify_all();
-  }
-
-  // Waits until the event version passes `seen` or `timeout_s` elapses; returns the current version.
-  uint64_t WaitEvent(uint64_t seen, double timeout_s) {
-    std::unique_lock lock(event_mu);
-    event_cv.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] { return version != seen || stopping; });
-    return version;
-  }
-  uint64_t CurrentVersion() {
-    std::lock_guard lock(event_mu);
-    return version;
-  }
-
-  std::string FilePath(int64_t id) const { return (fs::path(options.data_dir) / "jobs" / ("job-" + std::to_string(id) + ".h5")).string(); }
-
-  void Decorate(v1::Job* job) const {
-    if (job->iterations() > 0 || fs::exists(FilePath(job->id()))) job->set_data_file(FilePath(job->id()));
-  }
-
-  // Start-up repair: every job's design file holds exactly the iterations SQLite acknowledged, and
-  // none is left marked open by a killed writer.
-  Status Repair() {
-    const int released = store->ReleaseAllLeases(Now());
-    if (released > 0) Log(std::to_string(released) + " jobs of the previous server queued again");
-    Result<std::vector<v1::Job>> jobs = store->ListJobs(v1::JOB_STATE_UNSPECIFIED, 0, 1 << 30);
-    if (!jobs.ok()) return jobs.status();
-    for (const v1::Job& job : *jobs) {
-      const std::string path = FilePath(job.id());
-      if (!fs::exists(path)) {
-        if (job.iterations() > 0) Log(path + ": missing; job " + std::to_string(job.id()) + " lost its arrays");
-        continue;
-      }
-      // All intact iterations first (a file left by a killed server is rebuilt from them), then
-      // trimmed to what the job store acknowledged.
-      Result<std::unique_ptr<DesignFileWriter>> w = DesignFileWriter::Reopen(path);
-      if (!w.ok()) {
-        Log(w.message());
-        continue;
-      }
-      if (!(*w)->repair_note().empty()) Log(path + ": " + (*w)->repair_note());
-      const int on_disk = (*w)->num_iterations();
-      if (on_disk < job.iterations()) {
-        Log(path + ": holds fewer iterations than acknowledged; trimming job " + std::to_string(job.id()));
-        KGD_RETURN_IF_ERROR(store->TruncateIterations(job.id(), on_disk));
-      } else if (on_disk > job.iterations()) {
-        w->reset();
-        w = DesignFileWriter::Reopen(path, job.iterations());
-        if (!w.ok()) Log(w.message());
-      }
-    }
-    return Status::Ok();
-  }
-
-  // ------------------------------------------------------------------------------------------------
-  // DesignService
-
-  grpc::Status CreateJob(ServerContext*, const v1::CreateJobRequest* req, v1::Job* out) override {
-    if (draining) return grpc::Status(StatusCode::UNAVAILABLE, "the server is shutting down");
-    if (Status st = ValidateJobSpec(req->spec()); !st.ok()) return grpc::Status(StatusCode::INVALID_ARGUMENT, st.message());
-    Result<int64_t> id = store->CreateJob(req->spec(), options.max_attempts, Now());
-    if (!id.ok()) return Internal(id.status());
-    Result<std::optional<v1::Job>> job = store->GetJob(*id);
-    if (!job.ok() || !*job) return Internal(job.status());
-    *out = **job;
-    Log("job " + std::to_string(*id) + " queued");
-    Notify();
-    return grpc::Status::OK;
-  }
-
-  grpc::Status FindJob(int64_t id, v1::Job* out) {
-    Result<std::optional<v1::Job>> job = store->GetJob(id);
-    if (!job.ok()) return Internal(job.status());
-    if (!*job) return grpc::Status(StatusCode::NOT_FOUND, "job " + std::to_string(id) + " does not exist");
-    *out = **job;
-    Decorate(out);
-    return grpc::Status::OK;
-  }
-
-  grpc::Status GetJob(ServerContext*, const v1::GetJobRequest* req, v1::Job* out) override { return FindJob(req->id(), out); }
-
-  grpc::Status ListJobs(ServerContext*, const v1::ListJobsRequest* req, v1::ListJobsResponse* out) override {
-    if (req->page_size() < 0) return grpc::Status(StatusCode::INVALID_ARGUMENT, "page_size: must not be negative");
-    const int size = req->page_size() == 0 ? 50 : std::min(req->page_size(), 1000);
-    int64_t before = 0;
-    if (!req->page_token().empty()) {
-      char* end = nullptr;
-      before = std::strtoll(req->page_token().c_str(), &end, 10);
-      if (*end != '\0' || before <= 0) return grpc::Status(StatusCode::INVALID_ARGUMENT, "page_token: not a token from ListJobs");
-    }
-    Result<std::vector<v1::Job>> jobs = store->ListJobs(req->state_filter(), before, size);
-    if (!jobs.ok()) return Internal(jobs.status());
-    for (v1::Job& j : *jobs) {
-      Decorate(&j);
-      *out->add_jobs() = std::move(j);
-    }
-    if (static_cast<int>(out->jobs_size()) == size) out->set_next_page_token(std::to_string(out->jobs(size - 1).id()));
-    return grpc::Status::OK;
-  }
-
-  grpc::Status CancelJob(ServerContext*, const v1::CancelJobRequest* req, v1::Job* out) override {
-    Result<std::optional<v1::Job>> job = store->Cancel(req->id(), Now());
-    if (!job.ok()) return Internal(job.status());
-    if (!*job) return grpc::Status(StatusCode::NOT_FOUND, "job " + std::to_string(req->id()) + " does not exist");
-    *out = **job;
-    Decorate(out);
-    Log("job " + std::to_string(req->id()) + ": cancel requested");
-    Notify();
-    return grpc::Status::OK;
-  }
-
-  // Positions, energy densities and sensitivities of iteration k from the job's design file.
-  Result<BesoIteration> ReadArrays(int64_t id, int k) {
-    std::lock_guard lock(commit_mu);  // HDF5 calls are serialized with the writers
-    Result<DesignFile> f = ReadDesignFile(FilePath(id), {.arrays = true, .only_iteration = k});
-    if (!f.ok()) return f.status();
-    if (k >= static_cast<int>(f->iterations.size())) return Status::Error(FilePath(id) + ": iteration " + std::to_string(k) + " is missing");
-    return f->iterations[k];
-  }
-
-  grpc::Status WatchJob(ServerContext* ctx, const v1::WatchJobRequest* req, grpc::ServerWriter<v1::WatchJobEvent>* writer) override {
-    if (req->from_iteration() < 0) return grpc::Status(StatusCode::INVALID_ARGUMENT, "from_iteration: must not be negative");
-    v1::Job job;
-    if (grpc::Status st = FindJob(req->id(), &job); !st.ok()) return st;
-    v1::WatchJobEvent first;
-    *first.mutable_job() = job;
-    if (!writer->Write(first)) return grpc::Status::OK;
-    v1::JobState sent_state = job.state();
-    int next = req->from_iteration();
-    uint64_t seen = CurrentVersion();
-    while (!ctx->IsCancelled() && !stopping) {
-      // One snapshot (state, count) decides both what to send and whether the stream is complete.
-      const std::optional<std::pair<v1::JobState, int>> progress = store->Progress(req->id());
-      if (!progress) return grpc::Status(StatusCode::NOT_FOUND, "job " + std::to_string(req->id()) + " does not exist");
-      const auto [state, stored] = *progress;
-      for (; next < stored; ++next) {
-        Result<std::shared_ptr<const v1::IterationRecord>> rec = StoredIteration(req->id(), next);
-        if (!rec.ok()) return Internal(rec.status());
-        v1::WatchJobEvent ev;
-        *ev.mutable_iteration() = **rec;
-        if (req->with_positions()) {
-          Result<BesoIteration> arrays = ReadArrays(req->id(), next);
-          if (!arrays.ok()) return Internal(arrays.status());
-          for (Eigen::Index i = 0; i < arrays->positions.size(); ++i) ev.mutable_iteration()->add_positions(arrays->positions.data()[i]);
-        }
-        if (!writer->Write(ev)) return grpc::Status::OK;
-      }
-      if (state != sent_state) {
-        if (grpc::Status st = FindJob(req->id(), &job); !st.ok()) return st;
-        v1::WatchJobEvent ev;
-        *ev.mutable_job() = job;
-        if (!writer->Write(ev)) return grpc::Status::OK;
-        sent_state = job.state();
-      }
-      if (IsTerminal(state) && next >= stored) return grpc::Status::OK;
-      seen = WaitEvent(seen, 1.0);
-    }
-    return grpc::Status(StatusCode::CANCELLED, "the watch ended (client gone or server stopping)");
-  }
-
-  grpc::Status GetIteration(ServerContext*, const v1::GetIterationRequest* req, v1::GetIterationResponse* out) override {
-    v1::Job job;
-    if (grpc::Status st = FindJob(req->id(), &job); !st.ok()) return st;
-    const int k = req->iteration() < 0 ? job.iterations() - 1 : req->iteration();
-    if (k < 0 || k >= job.iterations())
-      return grpc::Status(StatusCode::NOT_FOUND, "job " + std::to_string(req->id()) + ": iteration " + std::to_string(req->iteration()) +
-                                                     " is not stored (" + (job.iterations() ? "0.." + std::to_string(job.iterations() - 1) : "none yet") + ")");
-    std::lock_guard lock(commit_mu);
-    Result<DesignFile> f = ReadDesignFile(FilePath(req->id()), {.arrays = true, .only_iteration = k});
-    if (!f.ok()) return Internal(f.status());
-    if (k >= static_cast<int>(f->iterations.size())) return grpc::Status(StatusCode::INTERNAL, "design file misses iteration " + std::to_string(k));
-    *out->mutable_record() = RecordToProto(f->iterations[k]);
-    if (req->with_garment()) *out->mutable_garment() = GarmentToProto(f->header);
-    return grpc::Status::OK;
-  }
-
-  // ------------------------------------------------------------------------------------------------
-  // WorkerService
-
-  grpc::Status LeaseJob(ServerContext* ctx, const v1::LeaseJobRequest* req, v1::LeaseJobResponse* out) override {
-    const double deadline = Now() + std::clamp(req->wait_s(), 0.0, 60.0);
-    uint64_t seen = CurrentVersion();
-    while (!draining && !stopping && !ctx->IsCancelled()) {
-      {
-        std::lock_guard lock(commit_mu);
-        Result<std::optional<Lease>> lease = store->LeaseNext(req->worker(), Now(), options.lease_duration_s);
-        if (!lease.ok()) return Internal(lease.status());
-        if (*lease) {
-          const Lease& l = **lease;
-          files.erase(l.job_id);  // a writer left by a lost lease
-          out->set_leased(true);
-          out->set_lease_id(l.lease_id);
-          out->set_job_id(l.job_id);
-          *out->mutable_spec() = l.spec;
-          out->set_attempt(l.attempt);
-          out->set_lease_duration_s(options.lease_duration_s);
-          if (l.iterations > 0) {
-            Result<std::vector<v1::IterationMetrics>> history = store->Metrics(l.job_id, 0, l.iterations);
-            Result<DesignFile> f = ReadDesignFile(FilePath(l.job_id), {.arrays = true, .only_iteration = l.iterations - 1});
-            if (!history.ok() || !f.ok() || static_cast<int>(f->iterations.size()) < l.iterations) {
-              const std::string why = !history.ok() ? history.message() : !f.ok() ? f.message() : "the design file misses iterations";
-              store->EndLease(l.job_id, l.lease_id, v1::FAILED, "cannot resume: " + why, Now());
-              Notify();
-              return Internal(Status::Error("job " + std::to_string(l.job_id) + " cannot resume: " + why));
-            }
-            for (const v1::IterationMetrics& m : *history) *out->add_history() = m;
-            *out->mutable_last() = RecordToProto(f->iterations[l.iterations - 1]);
-          }
-          Log("job " + std::to_string(l.job_id) + " leased to " + req->worker() + " (attempt " + std::to_string(l.attempt) + ", from iteration " + std::to_string(l.iterations) + ")");
-          Notify();
-          return grpc::Status::OK;
-        }
-      }
-      const double left = deadline - Now();
-      if (left <= 0) break;
-      seen = WaitEvent(seen, left);
-    }
-    out->set_leased(false);
-    return grpc::Status::OK;
-  }
-
-  // Stores one reported iteration: HDF5 first, then SQLite (the acknowledgement).
-  Status Commit(int64_t job_id, const std::string& lease_id, const v1::IterationRecord& record) {
-    std::lock_guard lock(commit_mu);
-    if (!store->LeaseValid(job_id, lease_id)) return Status::Error("the lease on job " + std::to_string(job_id) + " is no longer held");
-    auto it = files.find(job_id);
-    if (it == files.end() || it->second.lease_id != lease_id)
-      return Status::Error("job " + std::to_string(job_id) + ": iteration reported before start");
-    DesignFileWriter& w = *it->second.writer;
-    if (record.metrics().iteration() != w.num_iterations())
-      return Status::Error("job " + std::to_string(job_id) + ": iteration " + std::to_string(record.metrics().iteration()) + " reported after " +
-                           std::to_string(w.num_iterations()) + " stored");
-    Result<BesoIteration> it_rec = RecordFromProto(record, w.faces(), w.vertices());
-    if (!it_rec.ok()) return it_rec.status();
-    KGD_RETURN_IF_ERROR(w.Append(*it_rec));
-    KGD_RETURN_IF_ERROR(store->AppendIteration(job_id, lease_id, record.metrics(), record.design()));
-    auto shared = std::make_shared<v1::IterationRecord>();
-    *shared->mutable_metrics() = record.metrics();
-    shared->set_design(record.design());
-    std::lock_guard recent_lock(recent_mu);
-    recent[{job_id, record.metrics().iteration()}] = std::move(shared);
-    while (recent.size() > kRecentLimit) recent.erase(std::min_element(recent.begin(), recent.end(), [](const auto& a, const auto& b) {
-                                             return a.second->metrics().report_time_s() < b.second->metrics().report_time_s();
-                                           }));
-    return Status::Ok();
-  }
-
-  // Iteration k's metrics and design: from the recent commits, else from the store.
-  Result<std::shared_ptr<const v1::IterationRecord>> StoredIteration(int64_t id, int k) {
-    {
-      std::lock_guard lock(recent_mu);
-      auto it = recent.find({id, k});
-      if (it != recent.end()) return it->second;
-    }
-    Result<std::optional<v1::IterationRecord>> rec = store->Iteration(id, k);
-    if (!rec.ok()) return rec.status();
-    if (!*rec) return Status::Error("job " + std::to_string(id) + ": iteration " + std::to_string(k) + " vanished");
-    return std::shared_ptr<const v1::IterationRecord>(std::make_shared<v1::IterationRecord>(std::move(**rec)));
-  }
-
-  void CloseFile(int64_t job_id, const std::string& lease_id) {
-    std::lock_guard lock(commit_mu);
-    auto it = files.find(job_id);
-    if (it != files.end() && it->second.lease_id == lease_id) files.erase(it);
-  }
-
-  // Opens the job's design file for `lease_id` from the worker's start report: a new file for a new
-  // job, the stored one (cut to the acknowledged iterations) for a resumed one.
-  Status OpenJobFile(int64_t job_id, const std::string& lease_id, const v1::JobStart& start) {
-    std::lock_guard lock(commit_mu);
-    if (!store->LeaseValid(job_id, lease_id)) return Status::Error("the lease on job " + std::to_string(job_id) + " is no longer held");
-    Result<std::optional<v1::Job>> job = store->GetJob(job_id);
-    if (!job.ok()) return job.status();
-    if (!*job) return Status::Error("job " + std::to_string(job_id) + " vanished");
-    const std::string path = FilePath(job_id);
-    Result<std::unique_ptr<DesignFileWriter>> w = Status::Error("");
-    if ((*job)->iterations() == 0) {
-      DesignFileHeader header;
-      header.scene = start.scene();
-      header.body = start.body();
-      Result<BesoSettings> settings = BesoSettingsFromJson(start.settings_json());
-      if (!settings.ok()) return Status::Error("bad start report: " + settings.message());
-      KGD_RETURN_IF_ERROR(GarmentFromProto(start.garment(), &header).WithContext("bad start report: "));
-      header.settings = *settings;
-      fs::create_directories(fs::path(path).parent_path());
-      w = DesignFileWriter::Create(path, header);
-      store->SetGarmentFaces(job_id, static_cast<int>(header.garment.faces.rows()));
-    } else {
-      w = DesignFileWriter::Reopen(path, (*job)->iterations());
-      // Repair() rebuilt every file a killed server left; one found here would have lost iterations
-      // the worker was told are stored.
-      if (w.ok() && (*w)->num_iterations() < (*job)->iterations())
-        return Status::Error(path + ": " + (*w)->repair_note() + "; the job needs a server restart to be trimmed");
-    }
-    if (!w.ok()) return w.status();
-    files[job_id] = OpenFile{lease_id, std::move(w).value()};
-    return Status::Ok();
-  }
-
-  grpc::Status RunJob(ServerContext* ctx, grpc::ServerReaderWriter<v1::ServerMessage, v1::WorkerMessage>* stream) override {
-    v1::WorkerMessage msg;
-    if (!stream->Read(&msg)) return grpc::Status::OK;
-    const std::string lease_id = msg.lease_id();
-    const int64_t job_id = std::atoll(lease_id.c_str());
-    if (job_id <= 0 || !store->LeaseValid(job_id, lease_id)) {
-      v1::ServerMessage reply;
-      reply.set_error("lease '" + lease_id + "' is not held");
-      stream->Write(reply);
-      return grpc::Status(StatusCode::FAILED_PRECONDITION, reply.error());
-    }
-    ++active_streams;
-    // How the lease ends when the stream does: by default the worker is lost and the job queued again.
-    v1::JobState end = v1::QUEUED;
-    std::string failure = "the worker disconnected";
-    bool started = false, ended = false;
-    do {
-      v1::ServerMessage reply;
-      std::string refused;
-      if (msg.has_heartbeat()) {
-        if (!store->Renew(job_id, lease_id, Now(), options.lease_duration_s))
-          refused = "the lease on job " + std::to_string(job_id) + " is no longer held";
-      } else if (msg.has_start()) {
-        Status st = started ? Status::Error("a second start report") : OpenJobFile(job_id, lease_id, msg.start());
-        if (!st.ok()) {
-          refused = st.message();
-          end = v1::FAILED;  // a worker that cannot describe its garment, or a file that cannot be written
-        }
-        started = true;
-      } else if (msg.has_iteration()) {
-        if (Status st = Commit(job_id, lease_id, msg.iteration()); !st.ok()) refused = st.message();
-        else {
-          Notify();  // watchers first: the lease renewal is one more SQLite commit
-          store->Renew(job_id, lease_id, Now(), options.lease_duration_s);
-        }
-      } else if (msg.has_complete()) {
-        end = started ? v1::SUCCEEDED : v1::FAILED, failure = started ? "" : "completed without starting", ended = true;
-      } else if (msg.has_fail()) {
-        end = v1::FAILED, failure = msg.fail(), ended = true;
-      } else if (msg.has_release()) {
-        end = v1::QUEUED, failure.clear(), ended = true;
-      }
-      if (!refused.empty()) {
-        reply.set_error(refused);
-        stream->Write(reply);
-        failure = refused;
-        break;
-      }
-      if (!ended) {
-        std::lock_guard lock(commit_mu);
-        auto it = files.find(job_id);
-        reply.set_acknowledged_iterations(it == files.end() ? 0 : it->second.writer->num_iterations());
-        reply.set_cancel(store->CancelRequested(job_id));
-        reply.set_drain(draining);
-        stream->Write(reply);
-      }
-    } while (!ended && stream->Read(&msg));
-    CloseFile(job_id, lease_id);
-    Result<v1::JobState> state = store->EndLease(job_id, lease_id, end, failure, Now());
-    if (state.ok()) Log("job " + std::to_string(job_id) + " " + v1::JobState_Name(*state) + (failure.empty() ? "" : " (" + failure + ")"));
-    Notify();
-    --active_streams;
-    return ctx->IsCancelled() ? grpc::Status(StatusCode::CANCELLED, "stream ended") : grpc::Status::OK;
-  }
 };
 
 Result<std::unique_ptr<DesignServer>> DesignServer::Start(const ServerOptions& options) {
@@ -446,13 +69,11 @@ Result<std::unique_ptr<DesignServer>> DesignServer::Start(const ServerOptions& o
   s->impl_ = std::make_unique<Impl>();
   Impl& m = *s->impl_;
   m.options = options;
-  std::error_code ec;
-  fs::create_directories(fs::path(options.data_dir) / "jobs", ec);
-  if (ec) return Status::Error(options.data_dir + ": cannot create the data folder: " + ec.message());
-  Result<std::unique_ptr<JobStore>> store = JobStore::Open((fs::path(options.data_dir) / "kgd.sqlite").string());
-  if (!store.ok()) return store.status();
-  m.store = std::move(store).value();
-  KGD_RETURN_IF_ERROR(m.Repair());
+  Result<std::unique_ptr<JobService>> service =
+      JobService::Open({.data_dir = options.data_dir, .lease_duration_s = options.lease_duration_s, .max_attempts = options.max_attempts, .quiet = options.quiet});
+  if (!service.ok()) return service.status();
+  m.service = std::move(service).value();
+  m.services = std::make_unique<GrpcServices>(m.service.get());
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -460,25 +81,11 @@ Result<std::unique_ptr<DesignServer>> DesignServer::Start(const ServerOptions& o
   builder.AddListeningPort(options.address, grpc::InsecureServerCredentials(), &m.port);
   builder.SetMaxReceiveMessageSize(options.max_message_bytes);
   builder.SetMaxSendMessageSize(options.max_message_bytes);
-  builder.RegisterService(static_cast<v1::DesignService::Service*>(&m));
-  builder.RegisterService(static_cast<v1::WorkerService::Service*>(&m));
+  builder.RegisterService(static_cast<v1::DesignService::Service*>(m.services.get()));
+  builder.RegisterService(static_cast<v1::WorkerService::Service*>(m.services.get()));
   m.server = builder.BuildAndStart();
   if (!m.server || m.port == 0) return Status::Error(options.address + ": cannot listen (address in use?)");
-  m.expiry = std::thread([&m] {
-    uint64_t seen = m.CurrentVersion();
-    while (!m.stopping) {
-      seen = m.WaitEvent(seen, std::min(0.5, m.options.lease_duration_s / 4));
-      std::vector<int64_t> expired;
-      {
-        std::lock_guard lock(m.commit_mu);
-        expired = m.store->ExpireLeases(Now());
-        for (int64_t id : expired) m.files.erase(id);
-      }
-      for (int64_t id : expired) m.Log("job " + std::to_string(id) + ": the worker's lease expired");
-      if (!expired.empty()) m.Notify();
-    }
-  });
-  m.Log("serving on " + s->address() + " (data in " + options.data_dir + ")");
+  if (!options.quiet) std::fprintf(stderr, "kgd-server: serving on %s (data in %s)\n", s->address().c_str(), options.data_dir.c_str());
   return s;
 }
 
@@ -491,29 +98,17 @@ std::string DesignServer::address() const {
   return (host == "0.0.0.0" || host == "[::]" ? "127.0.0.1" : host) + ":" + std::to_string(impl_->port);
 }
 const std::string& DesignServer::data_dir() const { return impl_->options.data_dir; }
+JobService& DesignServer::service() { return *impl_->service; }
 
-void DesignServer::Drain() {
-  Impl& m = *impl_;
-  m.draining = true;
-  m.Notify();
-  m.Log("draining: no new leases; running jobs stop after their current iteration");
-  const double deadline = Now() + m.options.drain_timeout_s;
-  while (m.active_streams > 0 && Now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-}
+void DesignServer::Drain() { impl_->service->Drain(impl_->options.drain_timeout_s); }
 
 void DesignServer::Shutdown() {
   Impl& m = *impl_;
-  {
-    std::lock_guard lock(m.shutdown_mu);
-    if (m.shut) return;
-    m.shut = true;
-  }
-  m.stopping = true;
-  m.Notify();
+  if (!m.service || m.shut) return;
+  m.shut = true;
+  m.service->Stop();
   if (m.server) m.server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
-  if (m.expiry.joinable()) m.expiry.join();
-  std::lock_guard lock(m.commit_mu);
-  m.files.clear();
+  m.service->Close();
 }
 
 void DesignServer::Wait() {

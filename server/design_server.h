@@ -1,21 +1,14 @@
-// The design server: DesignService for clients and WorkerService for workers (proto/kgd/v1/kgd.proto)
-// over one data folder:
-//   DIR/kgd.sqlite       the job store (server/job_store.h): queue, leases, iteration metrics
-//   DIR/jobs/job-N.h5    each job's design file (store/design_file.h), written from worker reports
-// It stores and streams; it never simulates. An iteration is acknowledged to its worker after it is
-// in the HDF5 file (flushed, SWMR) and then in SQLite (committed), in that order, so a server killed
-// at any moment restarts with every acknowledged iteration; on start it trims any HDF5 iteration
-// SQLite never acknowledged and queues the jobs whose workers it lost.
-//
-// Leases: a worker holds a job while its RunJob stream is open and its heartbeats arrive within
-// lease_duration_s; a lost worker's job is queued again (and resumes from its last acknowledged
-// iteration) until it has had max_attempts attempts.
+// The design server: the job service (server/job_service.h) behind gRPC, as DesignService for clients
+// and WorkerService for workers (proto/kgd/v1/kgd.proto), with health checking and reflection. The
+// handlers only translate: what the service does, and how it keeps a data folder crash-safe, is
+// documented in job_service.h.
 #pragma once
 
 #include <memory>
 #include <string>
 
 #include "core/util/status.h"
+#include "server/job_service.h"
 
 namespace kgd::server {
 
@@ -38,6 +31,8 @@ class DesignServer {
   int port() const;
   std::string address() const;  // 127.0.0.1:PORT for clients
   const std::string& data_dir() const;
+  // The transport-free service behind the gRPC handlers, for other doors in the same process.
+  JobService& service();
 
   // Stops leasing, asks running workers to stop after their current iteration (their jobs are queued
   // again, to resume later), and waits for them up to drain_timeout_s.

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <type_traits>
 
 #include <nlohmann/json.hpp>
 
@@ -16,29 +17,22 @@ namespace {
 constexpr const char* kFormat = "kgd design history";
 constexpr int kFormatVersion = 1;
 
-// Metric datasets: name, and whether they hold integers.
+// Metric datasets, one per entry of KGD_BESO_METRICS: name, and whether they hold integers.
 struct MetricSpec {
   const char* name;
   bool integer;
   double BesoIteration::*real;
   int BesoIteration::*whole;
 };
+template <typename T>
+MetricSpec Metric(const char* name, T BesoIteration::*member) {
+  if constexpr (std::is_same_v<T, int>) return {name, true, nullptr, member};
+  else return {name, false, member, nullptr};
+}
 const std::vector<MetricSpec>& Metrics() {
-  static const std::vector<MetricSpec> m = {
-      {"target_area_m2", false, &BesoIteration::target_area_m2, nullptr},
-      {"area_fraction", false, &BesoIteration::area_fraction, nullptr},
-      {"energy_J", false, &BesoIteration::energy_J, nullptr},
-      {"reinforced_energy_J", false, &BesoIteration::reinforced_energy_J, nullptr},
-      {"reinforced_density_J_per_m2", false, &BesoIteration::reinforced_density_J_per_m2, nullptr},
-      {"density_ratio", false, &BesoIteration::density_ratio, nullptr},
-      {"solver_iterations", true, nullptr, &BesoIteration::solver_iterations},
-      {"cold_restart", true, nullptr, &BesoIteration::cold_restart},
-      {"simulation_s", false, &BesoIteration::simulation_s, nullptr},
-      {"sensitivity_s", false, &BesoIteration::sensitivity_s, nullptr},
-      {"filter_s", false, &BesoIteration::filter_s, nullptr},
-      {"update_s", false, &BesoIteration::update_s, nullptr},
-      {"total_s", false, &BesoIteration::total_s, nullptr},
-  };
+#define KGD_METRIC_SPEC(type, name, what) Metric(#name, &BesoIteration::name),
+  static const std::vector<MetricSpec> m = {KGD_BESO_METRICS(KGD_METRIC_SPEC)};
+#undef KGD_METRIC_SPEC
   return m;
 }
 
@@ -153,8 +147,8 @@ bool ReadAll(hid_t group, const char* name, hid_t mem_type, void* data) {
 
 // How a growing dataset is stored. Per-iteration float arrays are not deflated: double-precision
 // positions, energies and sensitivities are mostly mantissa noise and shrink by only ~25 % with
-// shuffle + deflate, which cost ~13 ms of the ~15 ms an arm-flexion append takes (bench/
-// design_benchmark BM_DesignFileAppend) and sit on the path from a worker's report to its watchers.
+// shuffle + deflate, which would cost most of an append's time and sit on the path from a worker's
+// report to its watchers.
 // Designs (bytes of 0 and 1) deflate to a few percent.
 enum class Storage { kScalars, kDeflated, kRaw };
 
@@ -254,17 +248,12 @@ const std::vector<std::string>& DesignFileMetricNames() {
 
 std::string BesoSettingsToJson(const BesoSettings& s) {
   nlohmann::ordered_json j;
-  j["budget"] = s.budget;
-  j["evolutionary_ratio"] = s.evolutionary_ratio;
-  j["admission_ratio"] = s.admission_ratio;
-  j["d_min"] = s.d_min;
-  j["penalty"] = s.penalty;
-  j["temporal_averaging"] = s.temporal_averaging;
-  j["average_with_raw"] = s.average_with_raw;
-  j["keep_attachments"] = s.keep_attachments;
-  j["tau"] = s.tau;
-  j["converge_window"] = s.converge_window;
-  j["max_iterations"] = s.max_iterations;
+#define KGD_VALUE_TO_JSON(type, name, default_value, flag, help) j[#name] = s.name;
+  KGD_BESO_VALUES(KGD_VALUE_TO_JSON)
+#undef KGD_VALUE_TO_JSON
+#define KGD_SWITCH_TO_JSON(name, default_value, flag, proto_field, help) j[#name] = s.name;
+  KGD_BESO_SWITCHES(KGD_SWITCH_TO_JSON)
+#undef KGD_SWITCH_TO_JSON
   return j.dump();
 }
 
@@ -275,18 +264,16 @@ Result<BesoSettings> BesoSettingsFromJson(const std::string& text) {
   try {
     for (auto it = j.begin(); it != j.end(); ++it) {
       const std::string& k = it.key();
-      if (k == "budget") s.budget = it->get<double>();
-      else if (k == "evolutionary_ratio") s.evolutionary_ratio = it->get<double>();
-      else if (k == "admission_ratio") s.admission_ratio = it->get<double>();
-      else if (k == "d_min") s.d_min = it->get<double>();
-      else if (k == "penalty") s.penalty = it->get<double>();
-      else if (k == "temporal_averaging") s.temporal_averaging = it->get<bool>();
-      else if (k == "keep_attachments") s.keep_attachments = it->get<bool>();
-      else if (k == "average_with_raw") s.average_with_raw = it->get<bool>();
-      else if (k == "tau") s.tau = it->get<double>();
-      else if (k == "converge_window") s.converge_window = it->get<int>();
-      else if (k == "max_iterations") s.max_iterations = it->get<int>();
-      else return Status::Error("BESO settings: unknown key \"" + k + "\"");
+      bool known = false;
+#define KGD_VALUE_FROM_JSON(type, name, default_value, flag, help) \
+  if (k == #name) s.name = it->get<type>(), known = true;
+      KGD_BESO_VALUES(KGD_VALUE_FROM_JSON)
+#undef KGD_VALUE_FROM_JSON
+#define KGD_SWITCH_FROM_JSON(name, default_value, flag, proto_field, help) \
+  if (k == #name) s.name = it->get<bool>(), known = true;
+      KGD_BESO_SWITCHES(KGD_SWITCH_FROM_JSON)
+#undef KGD_SWITCH_FROM_JSON
+      if (!known) return Status::Error("BESO settings: unknown key \"" + k + "\"");
     }
   } catch (const nlohmann::json::exception& e) {
     return Status::Error(std::string("BESO settings: ") + e.what());

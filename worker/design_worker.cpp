@@ -11,7 +11,7 @@
 #include <thread>
 #include <vector>
 
-#include "core/beso/design_loop.h"
+#include "job/design_job.h"
 #include "kgd/v1/kgd.grpc.pb.h"
 #include "proto/job_spec.h"
 #include "proto/records.h"
@@ -24,12 +24,6 @@ std::string DefaultName() {
   char host[256] = {};
   gethostname(host, sizeof host - 1);
   return std::string(host) + ":" + std::to_string(getpid());
-}
-
-std::string JoinWords(const google::protobuf::RepeatedPtrField<std::string>& words) {
-  std::string s;
-  for (const std::string& w : words) s += (s.empty() ? "" : " ") + w;
-  return s;
 }
 
 }  // namespace
@@ -117,36 +111,30 @@ struct DesignWorker::Impl {
     // What the job comes to: run.ok() with the flags, or a failure reason.
     std::string failure;
     Result<std::vector<BesoIteration>> run = Status::Error("not run");
-    Result<SceneSpec> scene = SceneOfJob(lease.spec());
-    Result<BesoSettings> settings = Status::Error("");
-    std::vector<BesoIteration> resume;
-    if (!scene.ok()) failure = scene.message();
-    if (failure.empty()) {
-      settings = SettingsOfJob(lease.spec().optimizer(), scene->budget);
-      if (!settings.ok()) failure = settings.message();
-    }
-    if (failure.empty()) {
-      ApplySolverOverrides(lease.spec().optimizer(), &scene->solver);
-      if (lease.history_size() > 0) {
-        for (const v1::IterationMetrics& m : lease.history()) resume.push_back(MetricsFromProto(m));
-        Result<BesoIteration> last = RecordFromProto(lease.last(), static_cast<int>(scene->garment.faces.rows()),
-                                                     static_cast<int>(scene->garment.vertices.rows()));
-        if (!last.ok()) failure = "checkpoint: " + last.message();
-        else if (last->iteration != resume.back().iteration) failure = "checkpoint: the last record is not the last iteration";
-        else resume.back() = std::move(last).value();
+    Result<DesignJob> job = Status::Error("");
+    {
+      Result<SceneSpec> scene = SceneOfJob(lease.spec());
+      if (!scene.ok()) failure = scene.message();
+      else {
+        const std::vector<std::string> body(lease.spec().body().begin(), lease.spec().body().end());
+        job = NewDesignJob(std::move(scene).value(), lease.spec().optimizer(), JobSceneName(lease.spec()), JoinWords(body));
+        if (!job.ok()) failure = job.message();
       }
+    }
+    if (failure.empty() && lease.history_size() > 0) {
+      for (const v1::IterationMetrics& m : lease.history()) job->history.push_back(MetricsFromProto(m));
+      Result<BesoIteration> last = RecordFromProto(lease.last(), static_cast<int>(job->header.garment.faces.rows()),
+                                                   static_cast<int>(job->header.garment.vertices.rows()));
+      if (!last.ok()) failure = "checkpoint: " + last.message();
+      else if (last->iteration != job->history.back().iteration) failure = "checkpoint: the last record is not the last iteration";
+      else job->history.back() = std::move(last).value();
     }
     if (failure.empty()) {
       v1::WorkerMessage start;
-      DesignFileHeader h;
-      h.garment = scene->garment;
-      h.initial = scene->initial;
-      h.rest_area_m2 = FaceAreas(scene->garment.vertices, scene->garment.faces);
-      h.attachment_faces = scene->attachment_faces;
-      *start.mutable_start()->mutable_garment() = GarmentToProto(h);
-      start.mutable_start()->set_scene(JobSceneName(lease.spec()));
-      start.mutable_start()->set_body(JoinWords(lease.spec().body()));
-      start.mutable_start()->set_settings_json(BesoSettingsToJson(*settings));
+      *start.mutable_start()->mutable_garment() = GarmentToProto(job->header);
+      start.mutable_start()->set_scene(job->header.scene);
+      start.mutable_start()->set_body(job->header.body);
+      start.mutable_start()->set_settings_json(BesoSettingsToJson(job->settings()));
       if (!send(start)) lost = true;
       auto keep_going = [&] { return !(cancel || drain || lost || stop); };
       auto on_iteration = [&](const BesoIteration& it) {
@@ -162,7 +150,7 @@ struct DesignWorker::Impl {
         return keep_going();
       };
       if (keep_going()) {
-        run = RunBeso(*scene, *settings, on_iteration, resume.empty() ? nullptr : &resume);
+        run = RunDesignJob(*job, on_iteration);
         if (!run.ok()) failure = run.message();
       }
     }

@@ -16,18 +16,44 @@
 
 namespace kgd {
 
+// The BESO settings, listed once. Every encoding reads these lists: the BesoSettings members below,
+// the design file's settings (store/design_file.cpp), kgd.v1.OptimizerSettings (proto/job_spec.cpp,
+// fields of the same names, checked by its test) and the CLI's flags (client/optimizer_flags.cpp).
+//
+// Values: X(type, name, default, flag, help). Unset in a job spec: the default (the budget: the
+// scene's own, if it has one).
+#define KGD_BESO_VALUES(X)                                                                                              \
+  X(double, budget, 0.15, "--budget", "Reinforced area at the end, as a fraction of the garment area, in (0, 1] (default: the scene's)") \
+  X(double, evolutionary_ratio, 0.015, "--er", "Evolutionary ratio ER: the target area shrinks by this fraction per iteration (default 0.015)") \
+  X(double, admission_ratio, 0.015, "--ar-max", "Admission limit AR_max: at most this fraction of the garment turns reinforced per iteration (default 0.015)") \
+  X(double, d_min, 0.001, "--d-min", "Design value of the soft material in the sensitivity formula (default 0.001)") \
+  X(double, penalty, 1.6, "--penalty", "Interpolation exponent p, >= 1 (default 1.6)")                                  \
+  X(double, tau, 1e-3, "--tau", "Stop when the objective changes by less than tau (relative) ... (default 1e-3)")      \
+  X(int, converge_window, 5, "--window", "... over this many iterations, with the budget reached (default 5)")          \
+  X(int, max_iterations, 400, "--iterations", "Stop after this BESO iteration at the latest (default 400)")
+// Switches: X(name, default, flag, proto field, help). The flag, and the proto field when true, turn
+// the switch away from its default.
+#define KGD_BESO_SWITCHES(X)                                                                                            \
+  X(temporal_averaging, true, "--no-averaging", no_temporal_averaging, "No temporal averaging of the sensitivities")     \
+  X(average_with_raw, false, "--average-with-raw", average_with_raw,                                                    \
+    "Average with the previous iteration's filtered, not averaged, sensitivities (the authors' code)")                 \
+  X(keep_attachments, false, "--keep-attachments", keep_attachments, "Attachment triangles stay reinforced")
+
+// budget: target reinforced area A* as a fraction of the garment area. evolutionary_ratio (ER): the
+// target area shrinks by this fraction per iteration. admission_ratio (AR_max): at most this fraction
+// of the garment area turns reinforced per iteration. d_min: minimum design variable of the soft
+// material. penalty (p): SIMP-style interpolation exponent. tau, converge_window: convergence when the
+// relative objective change stays below tau over the window, with the target area reached.
+// temporal_averaging: average filtered sensitivities with the previous iteration's averaged ones (Huang
+// & Xie, the paper) or, with average_with_raw, its filtered-only ones (the authors' code).
+// keep_attachments: attachment triangles stay reinforced.
 struct BesoSettings {
-  double budget = 0.15;               // target reinforced area A* as a fraction of the garment area
-  double evolutionary_ratio = 0.015;  // ER: the target area shrinks by this fraction per iteration
-  double admission_ratio = 0.015;     // AR_max: at most this fraction of the garment area turns reinforced per iteration
-  double d_min = 0.001;               // minimum design variable of the soft material
-  double penalty = 1.6;               // p: SIMP-style interpolation exponent
-  bool temporal_averaging = true;     // average filtered sensitivities with the previous iteration's ...
-  bool average_with_raw = false;      // ... averaged ones (Huang & Xie, the paper), or filtered-only ones (the authors' code)
-  bool keep_attachments = false;      // attachment triangles stay reinforced
-  double tau = 1e-3;                  // convergence: relative objective change below tau ...
-  int converge_window = 5;            // ... over this many iterations, with the target area reached
-  int max_iterations = 400;
+#define KGD_DECLARE_BESO_VALUE(type, name, default_value, flag, help) type name = default_value;
+  KGD_BESO_VALUES(KGD_DECLARE_BESO_VALUE)
+#undef KGD_DECLARE_BESO_VALUE
+#define KGD_DECLARE_BESO_SWITCH(name, default_value, flag, proto_field, help) bool name = default_value;
+  KGD_BESO_SWITCHES(KGD_DECLARE_BESO_SWITCH)
+#undef KGD_DECLARE_BESO_SWITCH
 };
 
 // Budget in (0, 1], ER and AR_max in (0, 1), p >= 1 and finite, d_min in (0, 1), tau > 0 and finite,

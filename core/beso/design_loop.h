@@ -17,20 +17,32 @@
 
 namespace kgd {
 
+// The scalar figures of a BESO iteration, listed once: X(type, name, what). Every encoding reads this
+// list: the BesoIteration members below, the design file's datasets (store/design_file.cpp), and the
+// kgd.v1.IterationMetrics fields of the same names (proto/records.cpp, checked by its test), from which
+// the job store's SQLite columns and the CLI's JSON follow. A new figure is one line here, one field
+// in the proto, and its computation. Times are wall seconds.
+#define KGD_BESO_METRICS(X)                                                                                  \
+  X(double, target_area_m2, "the reinforced area the design update aimed at")                               \
+  X(double, area_fraction, "reinforced rest area / garment rest area")                                      \
+  X(double, energy_J, "total potential energy at equilibrium (the objective)")                              \
+  X(double, reinforced_energy_J, "membrane energy of the reinforced triangles")                             \
+  X(double, reinforced_density_J_per_m2, "reinforced energy / reinforced rest area")                        \
+  X(double, density_ratio, "reinforced density / that of the fully reinforced design")                      \
+  X(int, solver_iterations, "Newton (or L-BFGS) iterations of the equilibrium solve")                       \
+  X(int, cold_restart, "1: the warm-started solve failed and the garment was re-solved from the body")      \
+  X(double, simulation_s, "equilibrium solve")                                                              \
+  X(double, sensitivity_s, "sensitivities (W and the two-material formula)")                                \
+  X(double, filter_s, "filter and temporal averaging")                                                      \
+  X(double, update_s, "design update (ranking, threshold, admission)")                                      \
+  X(double, total_s, "the whole iteration")
+
 struct BesoIteration {
-  int iteration = 0;                   // 0: the fully reinforced design
-  double target_area_m2 = 0;
-  double area_fraction = 0;            // reinforced rest area / garment rest area
-  double energy_J = 0;                 // total potential energy at equilibrium (the objective)
-  double reinforced_energy_J = 0;      // membrane energy of the reinforced triangles
-  double reinforced_density_J_per_m2 = 0;
-  double density_ratio = 0;            // reinforced density / that of the fully reinforced design
+  int iteration = 0;  // 0: the fully reinforced design
   SolveStatus status = SolveStatus::kConverged;
-  int solver_iterations = 0;
-  int cold_restart = 0;                // 1: the warm-started solve failed and the garment was re-solved from the body
-  // Wall time (s): simulation; sensitivities (W and the two-material formula); filter and temporal
-  // averaging; design update (ranking, threshold, admission); total of the iteration.
-  double simulation_s = 0, sensitivity_s = 0, filter_s = 0, update_s = 0, total_s = 0;
+#define KGD_DECLARE_METRIC(type, name, what) type name = 0;
+  KGD_BESO_METRICS(KGD_DECLARE_METRIC)
+#undef KGD_DECLARE_METRIC
   std::vector<uint8_t> design;         // per face: kCloth / kReinforced
   Positions positions;                 // equilibrium (m)
   Eigen::VectorXd energy_density_Pa;   // W per face at equilibrium

@@ -37,10 +37,9 @@ Result<BodyRegion> ParametricGarmentRegion(const ParametricBody& body, const std
 Result<const ParametricBody*> DefaultParametricBody();
 
 // Garment-skin friction of the built-in scenes (Coulomb coefficient; see core/sim/friction.h): none, the
-// paper's contact. Until the body's bent joints kept their girth (docs/BODIES.md, crease pinch) a
-// frictionless sleeve whose reinforcement BESO had thinned slid 4-7 cm around the bent elbow, and the
-// built-in scenes used 0.1; on today's body all seven run to their budgets without it, with higher
-// density gains (docs/RESULTS.md). `"effects": {"friction": 0.1}` in a scene file turns friction on.
+// paper's contact. The parametric body's bent joints keep their girth, so a frictionless sleeve stays
+// in place around the joint and all seven scenes run to their budgets without it (docs/RESULTS.md,
+// "Sliding"). `"effects": {"friction": 0.1}` in a scene file turns friction on.
 inline constexpr double kPaperSceneFriction = 0.0;
 
 // The scene of one paper motion on `body`: the body posed through the motion's frames, the garment cut

@@ -179,7 +179,7 @@ class GarmentSystem {
   //    (concave skin) or shallower (convex) than the linear model's phi_from + grad_from . step: it goes
   //    to that depth, from either side (if the model predicts lift-off, it is treated as a crossing).
   //    Without this, cloth sliding on a limb spends most Newton iterations of a BESO re-solve undoing
-  //    micrometre penetrations and lift-offs (docs/PERFORMANCE.md, sixteenth session).
+  //    micrometre penetrations and lift-offs.
   // Neither changes an equilibrium, only the path to it. Returns the number of vertices moved.
   static constexpr double kProjectionDepth_m = 1e-10;
   int ProjectCrossingsOntoBody(const Eigen::VectorXd& phi_from, const Positions& grad_from, const Positions& x_from, Positions* trial);

@@ -19,7 +19,7 @@
 // the stiffest material by 100 % (E t times the mean edge length), whatever the mesh size or material.
 // Default grad_tol = 1e-4: the paper's |g| < 1e-7 is in MPa-based units (MN), i.e. 0.1 N, which on the
 // paper's 7.1k-vertex arm sleeve (E t = 1995 N/m, mean edge 4.8 mm) is grad_tol = 1.2e-4. What tighter
-// values cost and buy is measured in docs/PERFORMANCE.md.
+// values cost and buy: docs/PERFORMANCE.md, "Simulator".
 #pragma once
 
 #include <functional>
@@ -65,10 +65,9 @@ struct SolverSettings {
   int max_iterations = 0;           // 0: 200 for Newton, 50000 for L-BFGS
   // Newton: after a solve's first step (always factorized: it meets the caller's change), try PCG
   // preconditioned by that factorization before factorizing again. Off by default: on the relaxed
-  // garment-on-body scenes the Hessian moves too much between steps (regimes switch, contact changes),
-  // the PCG attempts fail and are wasted, and a BESO iteration took 0.84 s with them against 0.59 s
-  // without (arm flexion, docs/PERFORMANCE.md). On smooth problems (bilateral contact, no relaxation) a
-  // re-solve then factorizes once: 36-46 ms on the 7k sleeve against 53-63 ms without reuse.
+  // garment-on-body scenes the Hessian moves too much between steps (regimes switch, contact changes)
+  // and the PCG attempts fail and are wasted. On smooth problems (bilateral contact, no relaxation) a
+  // re-solve then factorizes once instead of twice (docs/PERFORMANCE.md, "Solver options").
   bool reuse_factorization = false;
   int max_pcg_iterations = 25;
   // Newton with unilateral contact: the line search corrects its trial points where the linear model of
@@ -76,8 +75,8 @@ struct SolverSettings {
   // into it goes back to the surface (the Hessian has no contact stiffness off the body, so the penalty
   // would cut the step to a sliver); a vertex in contact that slides along the curved skin goes to the
   // depth the linear model predicted (else the next steps undo micrometre penetrations and lift-offs).
-  // BESO re-solves of arm flexion take 1.5-3 Newton iterations with it, 6-12 without
-  // (docs/PERFORMANCE.md). The equilibrium is unchanged: only trial points differ.
+  // It saves most Newton iterations of a BESO re-solve on a sleeve (docs/PERFORMANCE.md, "Solver
+  // options"). The equilibrium is unchanged: only trial points differ.
   bool project_contact_crossings = true;
   // Newton: when 99 % of the squared residual sits on coordinates within two rings of the few whose
   // residual is at least 1 % of the largest, and those rings hold at most a third of the unknowns, the
@@ -85,8 +84,7 @@ struct SolverSettings {
   // of the whole. The last iterations of a BESO re-solve are often like this -- a pleat opening against
   // the fold barrier, a contact hop -- and converge linearly over a few iterations on ~100 vertices.
   // A local step that the line search rejects falls back to the global one. Equilibria are unchanged
-  // (same tolerance on the whole residual); a BESO iteration on arm flexion takes ~20 % less time
-  // (docs/PERFORMANCE.md).
+  // (same tolerance on the whole residual); what it saves: docs/PERFORMANCE.md, "Solver options".
   bool local_steps = true;
   int lbfgs_history = 20;
   std::function<void(const IterationInfo&)> on_iteration;  // optional

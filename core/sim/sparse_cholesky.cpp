@@ -33,9 +33,9 @@ constexpr double kSplitWorthIt = 0.85;
 // Our factors have thousands of small supernodes (fronts of tens to a few hundred rows). On them BLAS
 // threading costs more than it gives (UseSerialBlas), and CHOLMOD 3.0 (SuiteSparse 5.12) opens an
 // OpenMP team of a compiled-in 4 threads for every supernode it zeroes, whatever OMP_NUM_THREADS says.
-// On 2 cores the two fought: on the 7k-vertex sleeve a factorization took 120 ms, half of it in the
-// kernel; serial it takes ~55 ms (docs/PERFORMANCE.md). Serial BLAS also makes results independent of
-// the machine's core count. The two cores go to the two domains.
+// On 2 cores the two fight: threaded, a factorization of the 7k-vertex sleeve spends half its time in
+// the kernel and takes twice as long as serial. Serial BLAS also makes results independent of the
+// machine's core count. The two cores go to the two domains.
 
 // Limits OpenMP's active nesting while alive: 0 runs CHOLMOD's OpenMP regions on the calling thread;
 // 1 lets our two-domain region run on two threads while CHOLMOD's regions inside it stay serial. The

@@ -4,8 +4,8 @@
 //
 // Why the workers are stopped, not just left unused: OpenBLAS starts them when the library loads and
 // each one spins in sched_yield for its timeout (~2^28 cycles, about 0.1 s) before it sleeps. On two
-// cores that spin took one core from the first parallel assembly of every process: the first
-// evaluation of the 7k-vertex sleeve took 75 ms instead of 12 ms (docs/PERFORMANCE.md).
+// cores that spin takes one core from the first parallel assembly of every process (the first
+// evaluation of the 7k-vertex sleeve would take six times as long).
 //
 // Call before the first parallel region or BLAS call of a component (GarmentSystem and SparseCholesky
 // do). Idempotent and thread-safe (the work is done once per process, and no BLAS call of ours can run

@@ -1,0 +1,120 @@
+// A design job prepared, interrupted and resumed through the one path that `kgd design` and kgd-worker
+// share: the header describes the scene's garment and the spec's settings, a resumed job continues bit
+// for bit, and a scene that no longer gives the stored garment is refused with the difference named.
+#include "job/design_job.h"
+
+#include <gtest/gtest.h>
+
+namespace kgd {
+namespace {
+
+v1::OptimizerSettings QuickPullTest() {
+  v1::OptimizerSettings o;
+  o.set_budget(0.6);
+  o.set_evolutionary_ratio(0.05);
+  o.set_admission_ratio(0.05);
+  o.set_max_iterations(6);
+  return o;
+}
+
+TEST(DesignJob, NewJobDescribesTheScenesGarmentAndTheSpecsSettings) {
+  Result<SceneSpec> scene = PullTestScene("all_cloth");
+  ASSERT_TRUE(scene.ok());
+  v1::OptimizerSettings o = QuickPullTest();
+  o.set_grad_tol(3e-8);
+  const Eigen::VectorXd area = FaceAreas(scene->garment.vertices, scene->garment.faces);
+  Result<DesignJob> job = NewDesignJob(*scene, o, "pull_test", "a=1 b=2");
+  ASSERT_TRUE(job.ok()) << job.message();
+  EXPECT_EQ(job->header.scene, "pull_test");
+  EXPECT_EQ(job->header.body, "a=1 b=2");
+  EXPECT_EQ(job->settings().budget, 0.6);
+  EXPECT_EQ(job->settings().max_iterations, 6);
+  EXPECT_EQ(job->scene.solver.grad_tol, 3e-8);
+  EXPECT_EQ(job->header.garment.faces.rows(), scene->garment.faces.rows());
+  EXPECT_DOUBLE_EQ(job->header.rest_area_m2.sum(), area.sum());
+  EXPECT_TRUE(job->history.empty());
+
+  o.set_budget(1.5);
+  Result<DesignJob> bad = NewDesignJob(*scene, o, "pull_test", "");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.message().find("budget"), std::string::npos) << bad.message();
+}
+
+TEST(DesignJob, AResumedJobContinuesBitForBit) {
+  Result<SceneSpec> scene = PullTestScene("all_cloth");
+  ASSERT_TRUE(scene.ok());
+  Result<DesignJob> whole = NewDesignJob(*scene, QuickPullTest(), "pull_test", "");
+  ASSERT_TRUE(whole.ok());
+  const Result<std::vector<BesoIteration>> uninterrupted = RunDesignJob(*whole, {});
+  ASSERT_TRUE(uninterrupted.ok()) << uninterrupted.message();
+  ASSERT_EQ(uninterrupted->size(), 7u);
+
+  // Stopped after iteration 3, then resumed from the header and the stored history (metrics of 0..3,
+  // arrays of 3), as a design file or the server's checkpoint gives them.
+  Result<std::vector<BesoIteration>> first = RunDesignJob(*whole, [](const BesoIteration& it) { return it.iteration < 3; });
+  ASSERT_TRUE(first.ok());
+  ASSERT_EQ(first->size(), 4u);
+  std::vector<BesoIteration> history = *first;
+  for (size_t k = 0; k + 1 < history.size(); ++k) {
+    history[k].design.clear();
+    history[k].positions.resize(0, 3);
+    history[k].energy_density_Pa.resize(0);
+    history[k].sensitivity.resize(0);
+  }
+  Result<DesignJob> resumed = ResumeDesignJob(*scene, whole->header, history, "test.h5");
+  ASSERT_TRUE(resumed.ok()) << resumed.message();
+  const Result<std::vector<BesoIteration>> rest = RunDesignJob(*resumed, {});
+  ASSERT_TRUE(rest.ok()) << rest.message();
+  ASSERT_EQ(rest->size(), 3u);
+  for (size_t k = 0; k < rest->size(); ++k) {
+    const BesoIteration& a = (*rest)[k];
+    const BesoIteration& b = (*uninterrupted)[4 + k];
+    EXPECT_EQ(a.iteration, b.iteration);
+    EXPECT_EQ(a.design, b.design) << "iteration " << a.iteration;
+    EXPECT_EQ(a.energy_J, b.energy_J) << "iteration " << a.iteration;
+    EXPECT_TRUE(a.positions == b.positions) << "iteration " << a.iteration;
+  }
+}
+
+TEST(DesignJob, ResumeRefusesASceneThatNoLongerGivesTheStoredGarment) {
+  Result<SceneSpec> scene = PullTestScene("all_cloth");
+  ASSERT_TRUE(scene.ok());
+  Result<DesignJob> job = NewDesignJob(*scene, QuickPullTest(), "pull_test", "");
+  ASSERT_TRUE(job.ok());
+  SceneSpec moved = *scene;
+  moved.garment.vertices(7, 0) += 1e-6;
+  Result<DesignJob> r = ResumeDesignJob(moved, job->header, {}, "job.h5");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.message().find("job.h5: the scene 'pull_test' no longer gives the garment stored in the file (rest vertex 7 moved)"),
+            std::string::npos)
+      << r.message();
+  // A larger iteration limit is taken; a bad one is named.
+  Result<DesignJob> longer = ResumeDesignJob(*scene, job->header, {}, "job.h5", 40);
+  ASSERT_TRUE(longer.ok());
+  EXPECT_EQ(longer->settings().max_iterations, 40);
+}
+
+TEST(DesignJob, IterationsLeftCountsDownToTheBudgetAndTheWindow) {
+  Result<SceneSpec> scene = PullTestScene("all_cloth");
+  ASSERT_TRUE(scene.ok());
+  v1::OptimizerSettings o = QuickPullTest();
+  o.set_max_iterations(1000);
+  Result<DesignJob> job = NewDesignJob(*scene, o, "pull_test", "");
+  ASSERT_TRUE(job.ok());
+  const double area = job->header.rest_area_m2.sum();
+  BesoIteration at_budget;
+  at_budget.iteration = 50;
+  at_budget.target_area_m2 = 0.6 * area;
+  EXPECT_EQ(IterationsLeft(*job, at_budget), job->settings().converge_window);
+  // From full area at ER 5 %: ceil(log 0.6 / log 0.95) = 10 steps, then the window.
+  BesoIteration full;
+  full.target_area_m2 = area;
+  EXPECT_EQ(IterationsLeft(*job, full), 10 + job->settings().converge_window);
+  BesoIteration late;
+  late.iteration = 995;
+  late.target_area_m2 = area;
+  EXPECT_EQ(IterationsLeft(*job, late), 5);
+}
+
+}  // namespace
+}  // namespace kgd

@@ -1,0 +1,108 @@
+// The job service: everything the design service does, with no transport in it. The gRPC services
+// (server/design_server.h) and any other door (HTTP) are thin layers that turn requests into these
+// calls and ServiceStatus codes into their own.
+//
+// It owns one data folder:
+//   DIR/kgd.sqlite       the job store (server/job_store.h): queue, leases, iteration metrics
+//   DIR/jobs/job-N.h5    each job's design file (store/design_file.h), written from worker reports
+// It stores and streams; it never simulates. An iteration is acknowledged to its worker after it is
+// in the HDF5 file (flushed, SWMR) and then in SQLite (committed), in that order, so a service killed
+// at any moment restarts with every acknowledged iteration; on open it trims any HDF5 iteration SQLite
+// never acknowledged and queues the jobs whose workers it lost.
+//
+// Leases: a worker holds a job while its RunJob session is open and its heartbeats arrive within
+// lease_duration_s; a lost worker's job is queued again (and resumes from its last acknowledged
+// iteration) until it has had max_attempts attempts.
+//
+// Thread-safe: every call may come from any thread; WatchJob, LeaseJob and RunJob block (each polls
+// its `cancelled` callback and returns when the service stops).
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "core/util/status.h"
+#include "kgd/v1/kgd.pb.h"
+
+namespace kgd::server {
+
+// The canonical status codes of Google APIs (the same numbers and names as gRPC's), so that every
+// transport reports the same code for the same problem.
+enum class ServiceCode {
+  kOk = 0,
+  kCancelled = 1,
+  kInvalidArgument = 3,
+  kNotFound = 5,
+  kPermissionDenied = 7,
+  kResourceExhausted = 8,
+  kFailedPrecondition = 9,
+  kInternal = 13,
+  kUnavailable = 14,
+  kUnauthenticated = 16,
+};
+
+// "NOT_FOUND", "INVALID_ARGUMENT", ...
+const char* ServiceCodeName(ServiceCode code);
+
+struct ServiceStatus {
+  ServiceCode code = ServiceCode::kOk;
+  std::string message;  // names the problem: the field, the job, the iteration
+
+  bool ok() const { return code == ServiceCode::kOk; }
+  static ServiceStatus Ok() { return {}; }
+};
+
+struct JobServiceOptions {
+  std::string data_dir;  // created if missing
+  double lease_duration_s = 30;
+  int max_attempts = 5;
+  bool quiet = false;  // no log lines on stderr
+};
+
+class JobService {
+ public:
+  // Opens the data folder, repairs it after a crash, and starts expiring lost workers' leases.
+  static Result<std::unique_ptr<JobService>> Open(const JobServiceOptions& options);
+  ~JobService();  // Close()
+
+  const JobServiceOptions& options() const;
+
+  // -- For clients ---------------------------------------------------------------------------------
+  ServiceStatus CreateJob(const v1::CreateJobRequest& request, v1::Job* job);
+  ServiceStatus GetJob(int64_t id, v1::Job* job);
+  ServiceStatus ListJobs(const v1::ListJobsRequest& request, v1::ListJobsResponse* response);
+  ServiceStatus CancelJob(int64_t id, v1::Job* job);
+  ServiceStatus GetIteration(const v1::GetIterationRequest& request, v1::GetIterationResponse* response);
+  // Sends the job, its stored iterations from request.from_iteration(), then every new one and every
+  // state change as they come, until the job ends (OK), `write` returns false (the client is gone:
+  // OK) or `cancelled` returns true / the service stops (CANCELLED).
+  ServiceStatus WatchJob(const v1::WatchJobRequest& request, const std::function<bool(const v1::WatchJobEvent&)>& write,
+                         const std::function<bool()>& cancelled);
+
+  // -- For workers ---------------------------------------------------------------------------------
+  // Leases the oldest queued job, waiting up to request.wait_s() for one (response.leased() false when
+  // none came, or the service drains or stops).
+  ServiceStatus LeaseJob(const v1::LeaseJobRequest& request, v1::LeaseJobResponse* response, const std::function<bool()>& cancelled);
+  // One worker's session on a leased job: `read` gives the worker's messages (false: the stream
+  // ended), `write` sends the replies. Returns when the worker ends the lease, the stream ends, or the
+  // service refuses a report (the lease ends and the job is queued again or fails).
+  ServiceStatus RunJob(const std::function<bool(v1::WorkerMessage*)>& read, const std::function<bool(const v1::ServerMessage&)>& write,
+                       const std::function<bool()>& cancelled);
+
+  // -- Life cycle ----------------------------------------------------------------------------------
+  // Stops leasing and asks running workers to stop after their current iteration (their jobs are
+  // queued again, to resume later); waits up to timeout_s for their sessions to end.
+  void Drain(double timeout_s);
+  // Ends every blocking call (they return CANCELLED or, for LeaseJob, nothing leased); idempotent.
+  void Stop();
+  // Stop(), then closes the open design files; idempotent. The transports stop calling first.
+  void Close();
+
+ private:
+  JobService() = default;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace kgd::server
