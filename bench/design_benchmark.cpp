@@ -12,6 +12,7 @@
 #include "core/beso/design_loop.h"
 #include "core/scene/paper_scenes.h"
 #include "store/design_file.h"
+#include "core/scene/builtin_scenes.h"
 
 namespace kgd {
 namespace {

@@ -24,6 +24,7 @@
 #include "core/mesh/mesh_io.h"
 #include "core/scene/simulate.h"
 #include "store/design_file.h"
+#include "core/scene/builtin_scenes.h"
 
 namespace kgd::cli {
 namespace {

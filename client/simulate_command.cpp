@@ -12,6 +12,8 @@
 #include "core/scene/paper_scenes.h"
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
+#include "core/scene/scene_file.h"
+#include "core/scene/builtin_scenes.h"
 
 namespace kgd::cli {
 namespace {

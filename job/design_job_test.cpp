@@ -2,6 +2,7 @@
 // share: the header describes the scene's garment and the spec's settings, a resumed job continues bit
 // for bit, and a scene that no longer gives the stored garment is refused with the difference named.
 #include "job/design_job.h"
+#include "core/scene/builtin_scenes.h"
 
 #include <gtest/gtest.h>
 

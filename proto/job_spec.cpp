@@ -1,4 +1,6 @@
 #include "proto/job_spec.h"
+#include "core/scene/scene_file.h"
+#include "core/scene/builtin_scenes.h"
 
 #include <unistd.h>
 

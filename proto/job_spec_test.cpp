@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 
 #include "proto/records.h"
+#include "core/scene/scene_file.h"
+#include "core/scene/builtin_scenes.h"
 
 namespace kgd {
 namespace {

@@ -11,8 +11,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "store/hdf5.h"
+
 namespace kgd {
 namespace {
+using namespace hdf5;  // NOLINT: this file is the format over those helpers
 
 constexpr const char* kFormat = "kgd design history";
 constexpr int kFormatVersion = 1;
@@ -36,187 +39,7 @@ const std::vector<MetricSpec>& Metrics() {
   return m;
 }
 
-// RAII for HDF5 identifiers.
-struct Id {
-  hid_t id = H5I_INVALID_HID;
-  herr_t (*close)(hid_t) = nullptr;
-  Id() = default;
-  Id(hid_t i, herr_t (*c)(hid_t)) : id(i), close(c) {}
-  Id(Id&& o) noexcept : id(o.id), close(o.close) { o.id = H5I_INVALID_HID; }
-  Id& operator=(Id&& o) noexcept {
-    if (this != &o) {
-      reset();
-      id = o.id;
-      close = o.close;
-      o.id = H5I_INVALID_HID;
-    }
-    return *this;
-  }
-  ~Id() { reset(); }
-  void reset() {
-    if (id >= 0 && close) close(id);
-    id = H5I_INVALID_HID;
-  }
-  bool ok() const { return id >= 0; }
-  operator hid_t() const { return id; }
-};
-
-void SilenceHdf5() {
-  static bool done = [] {
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-    return true;
-  }();
-  (void)done;
-}
-
 Status Fail(const std::string& path, const std::string& what) { return Status::Error(path + ": " + what); }
-
-bool WriteStringAttribute(hid_t obj, const char* name, const std::string& value) {
-  Id type(H5Tcopy(H5T_C_S1), H5Tclose);
-  H5Tset_size(type, value.empty() ? 1 : value.size());
-  H5Tset_strpad(type, H5T_STR_NULLPAD);
-  H5Tset_cset(type, H5T_CSET_UTF8);
-  Id space(H5Screate(H5S_SCALAR), H5Sclose);
-  Id attr(H5Acreate2(obj, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
-  if (!attr.ok()) return false;
-  const std::string padded = value.empty() ? std::string(1, '\0') : value;
-  return H5Awrite(attr, type, padded.data()) >= 0;
-}
-
-bool ReadStringAttribute(hid_t obj, const char* name, std::string* value) {
-  Id attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
-  if (!attr.ok()) return false;
-  Id type(H5Aget_type(attr), H5Tclose);
-  if (H5Tget_class(type) != H5T_STRING || H5Tis_variable_str(type) > 0) return false;
-  const size_t n = H5Tget_size(type);
-  std::string buf(n + 1, '\0');
-  // Read in the stored type (fixed length): no conversion between character sets or paddings.
-  if (H5Aread(attr, type, buf.data()) < 0) return false;
-  buf.resize(std::strlen(buf.c_str()));
-  *value = buf;
-  return true;
-}
-
-bool WriteIntAttribute(hid_t obj, const char* name, int value) {
-  Id space(H5Screate(H5S_SCALAR), H5Sclose);
-  Id attr(H5Acreate2(obj, name, H5T_STD_I32LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
-  return attr.ok() && H5Awrite(attr, H5T_NATIVE_INT, &value) >= 0;
-}
-
-bool ReadIntAttribute(hid_t obj, const char* name, int* value) {
-  Id attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
-  return attr.ok() && H5Aread(attr, H5T_NATIVE_INT, value) >= 0;
-}
-
-// A fixed-size dataset written at once (row-major data).
-bool WriteFixed(hid_t group, const char* name, hid_t file_type, hid_t mem_type, const std::vector<hsize_t>& dims, const void* data) {
-  Id space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
-  bool empty = false;
-  for (hsize_t d : dims) empty |= d == 0;
-  // One chunk, for its checksum (see CreateGrowing); an empty dataset cannot be chunked.
-  Id plist(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
-  if (!empty) {
-    H5Pset_chunk(plist, static_cast<int>(dims.size()), dims.data());
-    H5Pset_fletcher32(plist);
-  }
-  Id set(H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, plist, H5P_DEFAULT), H5Dclose);
-  if (!set.ok()) return false;
-  return empty || H5Dwrite(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0;
-}
-
-// The current extent of an open dataset.
-std::vector<hsize_t> Dims(hid_t set) {
-  Id space(H5Dget_space(set), H5Sclose);
-  const int rank = H5Sget_simple_extent_ndims(space);
-  std::vector<hsize_t> dims(rank > 0 ? rank : 0);
-  if (rank > 0) H5Sget_simple_extent_dims(space, dims.data(), nullptr);
-  return dims;
-}
-
-// The shape of a dataset, or empty if it does not exist.
-std::vector<hsize_t> Shape(hid_t group, const char* name) {
-  if (H5Lexists(group, name, H5P_DEFAULT) <= 0) return {};
-  Id set(H5Dopen2(group, name, H5P_DEFAULT), H5Dclose);
-  return set.ok() ? Dims(set) : std::vector<hsize_t>{};
-}
-
-bool ReadAll(hid_t group, const char* name, hid_t mem_type, void* data) {
-  Id set(H5Dopen2(group, name, H5P_DEFAULT), H5Dclose);
-  return set.ok() && H5Dread(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0;
-}
-
-// How a growing dataset is stored. Per-iteration float arrays are not deflated: double-precision
-// positions, energies and sensitivities are mostly mantissa noise and shrink by only ~25 % with
-// shuffle + deflate, which would cost most of an append's time and sit on the path from a worker's
-// report to its watchers.
-// Designs (bytes of 0 and 1) deflate to a few percent.
-enum class Storage { kScalars, kDeflated, kRaw };
-
-// An extendible dataset of rows of shape `row`, one chunk per row (per 64 rows for scalars, so that a
-// history reads in a few chunks).
-bool CreateGrowing(hid_t group, const char* name, hid_t file_type, const std::vector<hsize_t>& row,
-                   Storage storage = Storage::kScalars) {
-  std::vector<hsize_t> dims{0}, max{H5S_UNLIMITED}, chunk{row.empty() ? hsize_t{64} : hsize_t{1}};
-  for (hsize_t r : row) {
-    dims.push_back(r);
-    max.push_back(r);
-    chunk.push_back(std::max<hsize_t>(r, 1));
-  }
-  Id space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), max.data()), H5Sclose);
-  Id plist(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
-  H5Pset_chunk(plist, static_cast<int>(chunk.size()), chunk.data());
-  if (storage == Storage::kDeflated) {
-    H5Pset_shuffle(plist);
-    H5Pset_deflate(plist, 4);
-  }
-  // HDF5 checksums its metadata but not raw data: without this a flipped byte in a chunk of positions
-  // read back silently as another number. With it the chunk fails to read, and the iteration is
-  // treated as damaged (Reopen rebuilds the file without it).
-  H5Pset_fletcher32(plist);
-  Id set(H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, plist, H5P_DEFAULT), H5Dclose);
-  return set.ok();
-}
-
-// Selects row `index` of `file_space` and returns the matching memory space (one row).
-Id SelectRow(hid_t file_space, hsize_t index) {
-  const int rank = H5Sget_simple_extent_ndims(file_space);
-  std::vector<hsize_t> start(rank, 0), count(rank);
-  H5Sget_simple_extent_dims(file_space, count.data(), nullptr);
-  start[0] = index;
-  count[0] = 1;
-  H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr);
-  return Id(H5Screate_simple(rank, count.data(), nullptr), H5Sclose);
-}
-
-// Writes row `index` of a growing dataset (extending it to index + 1 rows).
-bool WriteRow(hid_t group, const char* name, hid_t mem_type, hsize_t index, const void* data) {
-  Id set(H5Dopen2(group, name, H5P_DEFAULT), H5Dclose);
-  if (!set.ok()) return false;
-  std::vector<hsize_t> dims = Dims(set);
-  dims[0] = index + 1;
-  if (H5Dset_extent(set, dims.data()) < 0) return false;
-  Id file_space(H5Dget_space(set), H5Sclose);
-  Id mem_space = SelectRow(file_space, index);
-  return H5Dwrite(set, mem_type, mem_space, file_space, H5P_DEFAULT, data) >= 0;
-}
-
-bool ReadRow(hid_t group, const char* name, hid_t mem_type, hsize_t index, void* data) {
-  Id set(H5Dopen2(group, name, H5P_DEFAULT), H5Dclose);
-  if (!set.ok()) return false;
-  if (index >= Dims(set)[0]) return false;
-  Id file_space(H5Dget_space(set), H5Sclose);
-  Id mem_space = SelectRow(file_space, index);
-  return H5Dread(set, mem_type, mem_space, file_space, H5P_DEFAULT, data) >= 0;
-}
-
-bool Truncate(hid_t group, const char* name, hsize_t rows) {
-  Id set(H5Dopen2(group, name, H5P_DEFAULT), H5Dclose);
-  if (!set.ok()) return false;
-  std::vector<hsize_t> dims = Dims(set);
-  if (dims[0] <= rows) return true;
-  dims[0] = rows;
-  return H5Dset_extent(set, dims.data()) >= 0;
-}
 
 // Row-major copies of Eigen's column-major matrices.
 std::vector<double> RowMajor(const Positions& p) {
@@ -494,6 +317,10 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
        CreateGrowing(m.iterations, "status", H5T_STD_I32LE, {});
   for (const MetricSpec& s : Metrics())
     ok = ok && CreateGrowing(m.iterations, s.name, s.integer ? H5T_STD_I32LE : H5T_IEEE_F64LE, {});
+  // Per-iteration float arrays are not deflated: double-precision positions, energies and sensitivities
+  // are mostly mantissa noise and shrink by only ~25 % with shuffle + deflate, which would cost most of
+  // an append's time and sit on the path from a worker's report to its watchers. Designs (bytes of 0
+  // and 1) deflate to a few percent.
   ok = ok && CreateGrowing(m.iterations, "design", H5T_STD_U8LE, {nf}, Storage::kDeflated) &&
        CreateGrowing(m.iterations, "positions", H5T_IEEE_F64LE, {nv, 3}, Storage::kRaw) &&
        CreateGrowing(m.iterations, "energy_density_Pa", H5T_IEEE_F64LE, {nf}, Storage::kRaw) &&

@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "core/scene/scene.h"
+#include "core/scene/builtin_scenes.h"
 
 namespace kgd {
 namespace {

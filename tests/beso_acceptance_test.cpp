@@ -14,6 +14,8 @@
 #include "core/beso/design_loop.h"
 #include "core/scene/paper_scenes.h"
 #include "core/scene/scene.h"
+#include "core/scene/scene_file.h"
+#include "core/scene/builtin_scenes.h"
 
 namespace kgd {
 namespace {

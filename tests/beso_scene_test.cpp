@@ -11,6 +11,7 @@
 #include "core/beso/baselines.h"
 #include "core/beso/design_loop.h"
 #include "core/scene/scene.h"
+#include "core/scene/builtin_scenes.h"
 
 namespace kgd {
 namespace {

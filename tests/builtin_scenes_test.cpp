@@ -17,6 +17,7 @@
 #include "core/scene/paper_scenes.h"
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
+#include "core/scene/builtin_scenes.h"
 
 namespace kgd {
 namespace {

@@ -4,6 +4,7 @@
 #include "core/scene/scene.h"
 #include "core/scene/shapes.h"
 #include "core/scene/simulate.h"
+#include "core/scene/builtin_scenes.h"
 
 namespace kgd {
 namespace {

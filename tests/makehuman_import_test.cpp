@@ -11,6 +11,7 @@
 
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
+#include "core/scene/scene_file.h"
 
 namespace kgd {
 namespace {

@@ -1,6 +1,7 @@
 // The BESO loop on the pull test: every design meets its target area, every simulation converges,
 // the reinforced energy density rises as material goes, and the run is deterministic.
 #include "core/beso/design_loop.h"
+#include "core/scene/builtin_scenes.h"
 
 #include <cmath>
 

@@ -6,6 +6,8 @@
 #include <fstream>
 
 #include "core/scene/simulate.h"
+#include "core/scene/scene_file.h"
+#include "core/scene/builtin_scenes.h"
 
 namespace kgd {
 namespace {

@@ -9,6 +9,8 @@
 #include <random>
 
 #include "core/scene/scene.h"
+#include "core/scene/builtin_scenes.h"
+#include "core/sim/finite_difference_check.h"
 
 namespace kgd {
 namespace {
@@ -65,6 +67,20 @@ Fixture MakeSystem(ContactModel contact, Relaxation relax) {
   return fx;
 }
 
+// The whole system's energy as a term on all 3n coordinates (its gradient; the Hessian is not asked).
+testing::TermFunction SystemEnergy(GarmentSystem& sys) {
+  return [&sys](const Eigen::VectorXd& q, Eigen::VectorXd* g, Eigen::MatrixXd*) {
+    Positions x(q.size() / 3, 3);
+    for (Eigen::Index v = 0; v < x.rows(); ++v) x.row(v) = q.segment<3>(3 * v).transpose();
+    return sys.Evaluate(x, g, nullptr);
+  };
+}
+Eigen::VectorXd Flat(const Positions& x) {
+  Eigen::VectorXd q(x.size());
+  for (Eigen::Index v = 0; v < x.rows(); ++v) q.segment<3>(3 * v) = x.row(v).transpose();
+  return q;
+}
+
 TEST(GarmentSystem, TotalGradientMatchesFiniteDifferences) {
   for (ContactModel contact : {ContactModel::kNone, ContactModel::kUnilateral, ContactModel::kBilateral}) {
     Fixture fx = MakeSystem(contact, Relaxation::kExact);
@@ -76,17 +92,8 @@ TEST(GarmentSystem, TotalGradientMatchesFiniteDifferences) {
     if (contact != ContactModel::kNone) {
       EXPECT_GT(e.contact_J, 0);
     }
-    const double h = 1e-8;
-    double max_err = 0, max_g = 0;
-    for (int d = 0; d < 3 * fx.sys->num_vertices(); d += 7) {
-      Positions xp = fx.x, xm = fx.x;
-      xp(d / 3, d % 3) += h;
-      xm(d / 3, d % 3) -= h;
-      const double fd = (fx.sys->Evaluate(xp, nullptr, nullptr) - fx.sys->Evaluate(xm, nullptr, nullptr)) / (2 * h);
-      max_err = std::max(max_err, std::abs(fd - g[d]));
-      max_g = std::max(max_g, std::abs(g[d]));
-    }
-    EXPECT_LT(max_err, 1e-5 * max_g);
+    EXPECT_TRUE(testing::MatchesFiniteDifferences(SystemEnergy(*fx.sys), Flat(fx.x),
+                                                  {.step = 1e-8, .tolerance = 1e-5, .check_hessian = false, .stride = 7}));
   }
 }
 
@@ -156,17 +163,7 @@ TEST(GarmentSystem, FrictionGradientMatchesFiniteDifferencesAndNeedsContactForce
   EnergyBreakdown e;
   sys.Evaluate(x, &g, nullptr, &e);
   EXPECT_GT(e.friction_J, 0);
-  const double h = 1e-8;
-  double max_err = 0, max_g = 0;
-  for (int d = 0; d < 3 * sys.num_vertices(); d += 5) {
-    Positions xp = x, xm = x;
-    xp(d / 3, d % 3) += h;
-    xm(d / 3, d % 3) -= h;
-    const double fd = (sys.Evaluate(xp, nullptr, nullptr) - sys.Evaluate(xm, nullptr, nullptr)) / (2 * h);
-    max_err = std::max(max_err, std::abs(fd - g[d]));
-    max_g = std::max(max_g, std::abs(g[d]));
-  }
-  EXPECT_LT(max_err, 1e-5 * max_g);
+  EXPECT_TRUE(testing::MatchesFiniteDifferences(SystemEnergy(sys), Flat(x), {.step = 1e-8, .tolerance = 1e-5, .check_hessian = false, .stride = 5}));
   // Lagged where the garment is off the body: no normal force, no friction.
   sys.LagFriction(s.initial.rowwise() + Eigen::RowVector3d(1.0, 0, 0));
   sys.Evaluate(x, nullptr, nullptr, &e);

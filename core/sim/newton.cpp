@@ -180,52 +180,40 @@ SolveReport Simulator::Solve(Positions* x, const SolverSettings& settings) {
   return r;
 }
 
-SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings) {
-  GarmentSystem& sys = *system_;
-  Newton& nt = *newton_;
-  const std::vector<int>& free_index = sys.free_index();
-  const int n = sys.num_free_dofs();
-  const int max_it = settings.max_iterations > 0 ? settings.max_iterations : 200;
-  SolveReport rep;
-  rep.energy_c0 = sys.model().effects.relaxation == Relaxation::kAuthors;
-  rep.factor_nonzeros = nt.cholesky.factor_nonzeros();
-  rep.tolerance_N = settings.grad_tol * sys.force_scale_N() * std::sqrt(std::max(1.0, n / 3.0));
+// One Newton solve, step by step: the state a solve carries from iteration to iteration, and the
+// parts of an iteration (stop tests, the three ways to a step, the line search, the damping update).
+struct Simulator::NewtonSolve {
+  NewtonSolve(GarmentSystem& system, Newton& newton, const SolverSettings& settings, Positions* x)
+      : sys(system),
+        nt(newton),
+        settings(settings),
+        x(x),
+        free_index(system.free_index()),
+        n(system.num_free_dofs()),
+        max_it(settings.max_iterations > 0 ? settings.max_iterations : 200),
+        k_ref(system.stiffness_scale_N_per_m()),
+        project_crossings(settings.project_contact_crossings && system.model().effects.contact == ContactModel::kUnilateral),
+        g_full(newton.gradient) {}
 
-  sys.ApplyClampsSmoothly(x);
-  Eigen::VectorXd& g_full = nt.gradient;
-  auto t = Clock::now();
-  double E = sys.EvaluateFrom(nt.record, &g_full, &nt.H, *x, &g_full, &nt.H, &rep.energies, &nt.record);
-  rep.assembly_s += Seconds(t, Clock::now());
-  ++rep.energy_evaluations;
-  if (!std::isfinite(E)) {
-    rep.status = SolveStatus::kInvalidState;
-    rep.message = "energy is not finite at the initial state: " + sys.DescribeNonFiniteEnergy(*x);
-    rep.energy_J = E;
-    return rep;
-  }
-  if (n == 0) {
-    rep.status = SolveStatus::kConverged;
-    rep.energy_J = E;
-    return rep;
-  }
-  Eigen::VectorXd g = GatherFree(g_full, free_index, n);
-  const double g0 = g.norm();
+  GarmentSystem& sys;
+  Newton& nt;
+  const SolverSettings& settings;
+  Positions* x;
+  const std::vector<int>& free_index;
+  const int n, max_it;
+  const double k_ref;
+  const bool project_crossings;
+  SolveReport rep;
+  Eigen::VectorXd& g_full;  // the gradient at *x over all coordinates (kept in nt between solves)
+  Eigen::VectorXd g;        // ... over the free ones
+  double E = 0, g0 = 0;
   // Levenberg-Marquardt damping delta (N/m), adapted to how well the last step's quadratic model held:
   // shrinks after full steps (so it vanishes at convergence), grows after short ones. It bounds the steps
   // along the model's singular modes (slack cloth, sliding on the body, free translations). A warm
   // re-solve starts from the largest damping with which the last solve took full steps: the soft modes
   // are still there, and the new design moves the state more than the last converging steps did.
-  const double k_ref = sys.stiffness_scale_N_per_m();
-  double mu = nt.mu > 0 ? nt.mu : 1e-4 * k_ref;
-  double mu_full_max = 0;
-  bool pcg_allowed = nt.pcg_failures_in_row < 2;
-  if (!pcg_allowed && ++nt.solves_since_probe >= 8) {
-    pcg_allowed = true;
-    nt.solves_since_probe = 0;
-  }
-  bool skip_pcg = false;
-  const bool project_crossings =
-      settings.project_contact_crossings && sys.model().effects.contact == ContactModel::kUnilateral;
+  double mu = 0, mu_full_max = 0;
+  bool pcg_allowed = false, skip_pcg = false;
   Positions trial;
   Eigen::VectorXd g_trial_full;
   // The last line-search trial's energy; with trial_derivatives, g_trial_full, nt.H_trial and
@@ -237,15 +225,51 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
   // relaxation) Newton ends up straddling the gradient jump: the residual cannot fall, the energy has
   // converged, and without this count the solve would spend its whole iteration budget there.
   int stalled_steps = 0;
-  const int kStallSteps = 8;
+  static constexpr int kStallSteps = 8;
+  // The current iteration: its damping, how its step was found, and the line search's step length.
+  double delta = 0, alpha = 1.0;
+  bool fresh_factor = false, used_pcg = false, used_local = false;
 
-  for (int it = 0;; ++it) {
+  // Evaluates at the start; false when the solve ends there (rep says how).
+  bool Start() {
+    rep.energy_c0 = sys.model().effects.relaxation == Relaxation::kAuthors;
+    rep.factor_nonzeros = nt.cholesky.factor_nonzeros();
+    rep.tolerance_N = settings.grad_tol * sys.force_scale_N() * std::sqrt(std::max(1.0, n / 3.0));
+    sys.ApplyClampsSmoothly(x);
+    const auto t = Clock::now();
+    E = sys.EvaluateFrom(nt.record, &g_full, &nt.H, *x, &g_full, &nt.H, &rep.energies, &nt.record);
+    rep.assembly_s += Seconds(t, Clock::now());
+    ++rep.energy_evaluations;
+    if (!std::isfinite(E)) {
+      rep.status = SolveStatus::kInvalidState;
+      rep.message = "energy is not finite at the initial state: " + sys.DescribeNonFiniteEnergy(*x);
+      rep.energy_J = E;
+      return false;
+    }
+    if (n == 0) {
+      rep.status = SolveStatus::kConverged;
+      rep.energy_J = E;
+      return false;
+    }
+    g = GatherFree(g_full, free_index, n);
+    g0 = g.norm();
+    mu = nt.mu > 0 ? nt.mu : 1e-4 * k_ref;
+    pcg_allowed = nt.pcg_failures_in_row < 2;
+    if (!pcg_allowed && ++nt.solves_since_probe >= 8) {
+      pcg_allowed = true;
+      nt.solves_since_probe = 0;
+    }
+    return true;
+  }
+
+  // Converged, stalled or out of iterations at iteration `it` (rep says which).
+  bool Finished(int it) {
     rep.iterations = it;
     rep.energy_J = E;
     rep.grad_norm_N = g.norm();
     if (rep.grad_norm_N <= rep.tolerance_N) {
       rep.status = SolveStatus::kConverged;
-      return rep;
+      return true;
     }
     if (stalled_steps >= kStallSteps) {
       rep.status = SolveStatus::kStalled;
@@ -256,92 +280,144 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
                     "below what double precision resolves",
                     kStallSteps, E, rep.grad_norm_N, rep.tolerance_N);
       rep.message = buf;
-      return rep;
+      return true;
     }
     if (it >= max_it) {
       rep.status = SolveStatus::kIterationLimit;
       rep.message = "no convergence in " + std::to_string(max_it) + " Newton iterations";
-      return rep;
+      return true;
     }
-    double delta = std::max(mu, 1e-12 * k_ref);
+    return false;
+  }
 
+  // Conjugate gradients preconditioned by this solve's last factorization. Not for a solve's first step:
+  // the caller's change (a design flip turns faces' stiffness 11x) makes the last solve's factorization
+  // a poor preconditioner, and on smooth scenes one fresh factorization and PCG on it for the later
+  // steps beat PCG from the old one.
+  bool PcgStep(int it, int attempt, Eigen::VectorXd* p) {
+    if (!(settings.reuse_factorization && pcg_allowed && nt.have_factor && !fresh_factor && attempt == 0 && !skip_pcg && it > 0))
+      return false;
+    const auto t = Clock::now();
+    const double eta = std::min(0.1, std::sqrt(rep.grad_norm_N / std::max(g0, 1e-300)));
+    Eigen::VectorXd rvec = -g, z = nt.cholesky.Solve(rvec), d = z, Ad;
+    *p = Eigen::VectorXd::Zero(n);
+    double rz = rvec.dot(z);
+    const double target = eta * rep.grad_norm_N;
+    bool have_step = false;
+    int k = 0;
+    for (; k < settings.max_pcg_iterations; ++k) {
+      Ad = nt.H.selfadjointView<Eigen::Upper>() * d + delta * d;
+      const double dAd = d.dot(Ad);
+      if (!(dAd > 0)) break;
+      const double a = rz / dAd;
+      *p += a * d;
+      rvec -= a * Ad;
+      if (rvec.norm() <= target) { have_step = true; ++k; break; }
+      z = nt.cholesky.Solve(rvec);
+      const double rz_new = rvec.dot(z);
+      d = z + (rz_new / rz) * d;
+      rz = rz_new;
+    }
+    rep.pcg_iterations += k;
+    rep.solve_s += Seconds(t, Clock::now());
+    if (have_step) ++rep.pcg_solves;
+    used_pcg = have_step;
+    // PCG pays off while the Hessian stays close to the factorized one (warm re-solves, the last
+    // Newton iterations). Once it fails, the Hessian is moving: factorize for the rest of this solve.
+    skip_pcg = !have_step;
+    nt.pcg_failures_in_row = have_step ? 0 : nt.pcg_failures_in_row + 1;
+    if (nt.pcg_failures_in_row >= 2) pcg_allowed = false;
+    return have_step;
+  }
+
+  // A step on the region that holds the residual. Not for a solve's first step: that one meets whatever
+  // the caller changed (a new design, a new pose), which moves the whole garment.
+  bool RegionStep(int it, int attempt, Eigen::VectorXd* p) {
+    if (!(settings.local_steps && attempt == 0 && it > 0)) return false;
+    const auto t = Clock::now();
+    used_local = LocalStep(nt.H, g, delta, nt.vertex_of, p);
+    rep.solve_s += Seconds(t, Clock::now());
+    return used_local;
+  }
+
+  // A fresh factorization of H + delta I (raising delta until CHOLMOD succeeds) and its step; false
+  // when even the largest damping fails (rep says so).
+  bool FactorizedStep(Eigen::VectorXd* p) {
+    auto t = Clock::now();
+    if (!nt.cholesky.analyzed()) {
+      nt.cholesky.Analyze(nt.H);
+      rep.factor_nonzeros = nt.cholesky.factor_nonzeros();
+    }
+    bool ok = false;
+    for (int tries = 0; tries < 12; ++tries) {
+      ++rep.factorizations;
+      if (nt.cholesky.Factorize(nt.H, delta)) { ok = true; break; }
+      delta *= 10.0;
+    }
+    rep.factorization_s += Seconds(t, Clock::now());
+    if (!ok) {
+      nt.have_factor = false;
+      rep.status = SolveStatus::kNotPositiveDefinite;
+      rep.message = "Hessian not positive definite even with regularization " + std::to_string(delta) + " N/m";
+      return false;
+    }
+    nt.have_factor = true;
+    fresh_factor = true;
+    t = Clock::now();
+    *p = nt.cholesky.Solve(-g);
+    rep.solve_s += Seconds(t, Clock::now());
+    return true;
+  }
+
+  // Backtracking Armijo line search on the total energy along `p` (slope g.p < 0); true when a trial
+  // was accepted (then `trial`, E_new and alpha are its).
+  bool LineSearch(const Eigen::VectorXd& p, double slope) {
+    const auto t = Clock::now();
+    double derivatives_s = 0;  // of the line search's time, the evaluation of a trial's gradient and Hessian
     bool accepted = false;
-    bool fresh_factor = false;
-    bool used_pcg = false;
-    bool used_local = false;
-    double alpha = 1.0;
+    AddFree(p, 1.0, free_index, *x, &trial);
+    trial -= *x;
+    alpha = sys.MaxFoldSafeStep(*x, trial);
+    for (int ls = 0; ls < 40; ++ls, alpha *= 0.5) {
+      AddFree(p, alpha, free_index, *x, &trial);
+      // nt.record is the evaluation at *x, with a gradient: it holds Phi and grad Phi there.
+      if (project_crossings) sys.ProjectCrossingsOntoBody(nt.record.phi, nt.record.phi_grad, *x, &trial);
+      // The first trial is nearly always taken (the fold-safe length, or a full step), and the next
+      // iteration needs the gradient and Hessian there: evaluating them with the energy saves an
+      // energy-only pass per iteration and costs one Hessian when the trial is refused.
+      trial_derivatives = ls == 0;
+      if (trial_derivatives) {
+        const auto ta = Clock::now();
+        E_new = sys.EvaluateFrom(nt.record, &g_full, &nt.H, trial, &g_trial_full, &nt.H_trial, &trial_energies, &nt.record_trial);
+        derivatives_s += Seconds(ta, Clock::now());
+      } else {
+        E_new = sys.EvaluateFrom(nt.record, nullptr, nullptr, trial, nullptr, nullptr);
+      }
+      ++rep.energy_evaluations;
+      if (E_new <= E + 1e-4 * alpha * slope) { accepted = true; break; }
+      // Near the solution energy differences drown in round-off; a full step that does not raise E
+      // beyond round-off is still taken when it reduces the residual.
+      if (ls == 0 && std::isfinite(E_new) && E_new - E <= 1e-12 * std::abs(E) &&
+          GatherFree(g_trial_full, free_index, n).norm() < rep.grad_norm_N) {
+        accepted = true;
+        break;
+      }
+    }
+    rep.line_search_s += Seconds(t, Clock::now()) - derivatives_s;
+    rep.assembly_s += derivatives_s;
+    return accepted;
+  }
+
+  // Finds and takes one step from iteration `it`'s state: PCG, a region step or a factorization, each
+  // line-searched; refused steps retry with more damping. False when no step was found (rep says why).
+  bool Step(int it) {
+    delta = std::max(mu, 1e-12 * k_ref);
+    bool accepted = false;
+    fresh_factor = used_pcg = used_local = false;
+    alpha = 1.0;
     for (int attempt = 0; attempt < 8 && !accepted; ++attempt) {
       Eigen::VectorXd p;
-      bool have_step = false;
-      // 1) Conjugate gradients preconditioned by this solve's last factorization. Not for a solve's
-      //    first step: the caller's change (a design flip turns faces' stiffness 11x) makes the last
-      //    solve's factorization a poor preconditioner, and on smooth scenes one fresh factorization
-      //    and PCG on it for the later steps beat PCG from the old one (docs/PERFORMANCE.md).
-      if (settings.reuse_factorization && pcg_allowed && nt.have_factor && !fresh_factor && attempt == 0 && !skip_pcg &&
-          it > 0) {
-        t = Clock::now();
-        const double eta = std::min(0.1, std::sqrt(rep.grad_norm_N / std::max(g0, 1e-300)));
-        Eigen::VectorXd rvec = -g, z = nt.cholesky.Solve(rvec), d = z, Ad;
-        p = Eigen::VectorXd::Zero(n);
-        double rz = rvec.dot(z);
-        const double target = eta * rep.grad_norm_N;
-        int k = 0;
-        for (; k < settings.max_pcg_iterations; ++k) {
-          Ad = nt.H.selfadjointView<Eigen::Upper>() * d + delta * d;
-          const double dAd = d.dot(Ad);
-          if (!(dAd > 0)) break;
-          const double a = rz / dAd;
-          p += a * d;
-          rvec -= a * Ad;
-          if (rvec.norm() <= target) { have_step = true; ++k; break; }
-          z = nt.cholesky.Solve(rvec);
-          const double rz_new = rvec.dot(z);
-          d = z + (rz_new / rz) * d;
-          rz = rz_new;
-        }
-        rep.pcg_iterations += k;
-        rep.solve_s += Seconds(t, Clock::now());
-        if (have_step) ++rep.pcg_solves;
-        used_pcg = have_step;
-        // PCG pays off while the Hessian stays close to the factorized one (warm re-solves, the last
-        // Newton iterations). Once it fails, the Hessian is moving: factorize for the rest of this solve.
-        skip_pcg = !have_step;
-        nt.pcg_failures_in_row = have_step ? 0 : nt.pcg_failures_in_row + 1;
-        if (nt.pcg_failures_in_row >= 2) pcg_allowed = false;
-      }
-      // 2) A step on the region that holds the residual. Not for a solve's first step: that one meets
-      //    whatever the caller changed (a new design, a new pose), which moves the whole garment.
-      if (!have_step && settings.local_steps && attempt == 0 && it > 0) {
-        t = Clock::now();
-        have_step = used_local = LocalStep(nt.H, g, delta, nt.vertex_of, &p);
-        rep.solve_s += Seconds(t, Clock::now());
-      }
-      // 3) Fresh factorization of H + delta I (raising delta until CHOLMOD succeeds).
-      if (!have_step) {
-        t = Clock::now();
-        if (!nt.cholesky.analyzed()) {
-          nt.cholesky.Analyze(nt.H);
-          rep.factor_nonzeros = nt.cholesky.factor_nonzeros();
-        }
-        bool ok = false;
-        for (int tries = 0; tries < 12; ++tries) {
-          ++rep.factorizations;
-          if (nt.cholesky.Factorize(nt.H, delta)) { ok = true; break; }
-          delta *= 10.0;
-        }
-        rep.factorization_s += Seconds(t, Clock::now());
-        if (!ok) {
-          nt.have_factor = false;
-          rep.status = SolveStatus::kNotPositiveDefinite;
-          rep.message = "Hessian not positive definite even with regularization " + std::to_string(delta) + " N/m";
-          return rep;
-        }
-        nt.have_factor = true;
-        fresh_factor = true;
-        t = Clock::now();
-        p = nt.cholesky.Solve(-g);
-        rep.solve_s += Seconds(t, Clock::now());
-      }
+      if (!PcgStep(it, attempt, &p) && !RegionStep(it, attempt, &p) && !FactorizedStep(&p)) return false;
       const double slope = g.dot(p);
       if (!(slope < 0) || !p.allFinite()) {
         if (used_local) {
@@ -353,40 +429,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
         nt.have_factor = false;
         continue;
       }
-      // Backtracking Armijo line search on the total energy.
-      t = Clock::now();
-      double derivatives_s = 0;  // of the line search's time, the evaluation of a trial's gradient and Hessian
-      AddFree(p, 1.0, free_index, *x, &trial);
-      trial -= *x;
-      alpha = sys.MaxFoldSafeStep(*x, trial);
-      for (int ls = 0; ls < 40; ++ls, alpha *= 0.5) {
-        AddFree(p, alpha, free_index, *x, &trial);
-        // nt.record is the evaluation at *x, with a gradient: it holds Phi and grad Phi there.
-        if (project_crossings) sys.ProjectCrossingsOntoBody(nt.record.phi, nt.record.phi_grad, *x, &trial);
-        // The first trial is nearly always taken (the fold-safe length, or a full step), and the next
-        // iteration needs the gradient and Hessian there: evaluating them with the energy saves an
-        // energy-only pass per iteration and costs one Hessian when the trial is refused.
-        trial_derivatives = ls == 0;
-        if (trial_derivatives) {
-          const auto ta = Clock::now();
-          E_new = sys.EvaluateFrom(nt.record, &g_full, &nt.H, trial, &g_trial_full, &nt.H_trial, &trial_energies,
-                                   &nt.record_trial);
-          derivatives_s += Seconds(ta, Clock::now());
-        } else {
-          E_new = sys.EvaluateFrom(nt.record, nullptr, nullptr, trial, nullptr, nullptr);
-        }
-        ++rep.energy_evaluations;
-        if (E_new <= E + 1e-4 * alpha * slope) { accepted = true; break; }
-        // Near the solution energy differences drown in round-off; a full step that does not raise E
-        // beyond round-off is still taken when it reduces the residual.
-        if (ls == 0 && std::isfinite(E_new) && E_new - E <= 1e-12 * std::abs(E) &&
-            GatherFree(g_trial_full, free_index, n).norm() < rep.grad_norm_N) {
-          accepted = true;
-          break;
-        }
-      }
-      rep.line_search_s += Seconds(t, Clock::now()) - derivatives_s;
-      rep.assembly_s += derivatives_s;
+      accepted = LineSearch(p, slope);
       if (!accepted && used_local) {
         used_local = false;  // the global step next, at the same regularization
         continue;
@@ -398,22 +441,31 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
         nt.have_factor = false;
       }
     }
-    if (accepted) {
-      if (alpha == 1.0) {
-        mu = std::max(delta / 4.0, 1e-12 * k_ref);
-        mu_full_max = std::max(mu_full_max, delta);
-        nt.mu = mu_full_max;
-      } else if (alpha < 0.25) {
-        mu = std::min(delta * 8.0, 1e3 * k_ref);
-      } else {
-        mu = delta;
-      }
-    }
     if (!accepted) {
       rep.status = SolveStatus::kLineSearchFailed;
       rep.message = "line search found no energy decrease; residual " + std::to_string(rep.grad_norm_N) + " N";
-      return rep;
+      return false;
     }
+    UpdateDamping();
+    Accept(it);
+    return true;
+  }
+
+  void UpdateDamping() {
+    if (alpha == 1.0) {
+      mu = std::max(delta / 4.0, 1e-12 * k_ref);
+      mu_full_max = std::max(mu_full_max, delta);
+      nt.mu = mu_full_max;
+    } else if (alpha < 0.25) {
+      mu = std::min(delta * 8.0, 1e3 * k_ref);
+    } else {
+      mu = delta;
+    }
+  }
+
+  // Moves to the accepted trial, with its gradient and Hessian (evaluated there now if the line search
+  // did not).
+  void Accept(int it) {
     x->swap(trial);
     const double E_before = E;
     if (trial_derivatives) {
@@ -423,7 +475,7 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
       std::swap(nt.record, nt.record_trial);
       rep.energies = trial_energies;
     } else {
-      t = Clock::now();
+      const auto t = Clock::now();
       E = sys.EvaluateFrom(nt.record, &g_full, &nt.H, *x, &g_full, &nt.H, &rep.energies, &nt.record);
       rep.assembly_s += Seconds(t, Clock::now());
       ++rep.energy_evaluations;
@@ -433,6 +485,14 @@ SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings)
     if (settings.on_iteration) settings.on_iteration({it + 1, E, g.norm(), alpha, delta, used_pcg, used_local});
     stalled_steps = (alpha < 1.0 && E_before - E <= 1e-12 * std::abs(E_before)) ? stalled_steps + 1 : 0;
   }
+};
+
+SolveReport Simulator::SolveNewton(Positions* x, const SolverSettings& settings) {
+  NewtonSolve solve(*system_, *newton_, settings, x);
+  if (!solve.Start()) return solve.rep;
+  for (int it = 0; !solve.Finished(it) && solve.Step(it); ++it) {
+  }
+  return solve.rep;
 }
 
 void AccumulateSolve(SolveReport* total, const SolveReport& later) {

@@ -134,6 +134,7 @@ class Simulator {
 
   GarmentSystem* system_;
   struct Newton;
+  struct NewtonSolve;
   std::unique_ptr<Newton> newton_;
 };
 

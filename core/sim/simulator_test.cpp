@@ -8,6 +8,7 @@
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
 #include "core/sim/sparse_cholesky.h"
+#include "core/scene/builtin_scenes.h"
 
 namespace kgd {
 namespace {

@@ -1,0 +1,175 @@
+#include "core/scene/builtin_scenes.h"
+
+#include <cmath>
+#include <filesystem>
+
+#include "core/scene/paper_scenes.h"
+#include "core/scene/scene_file.h"
+#include "core/scene/shapes.h"
+
+namespace kgd {
+
+Result<SceneSpec> PullTestScene(const std::string& design, double pull_m) {
+  SceneSpec s;
+  s.name = "pull_test_" + design;
+  s.garment = RectangleSheet(0.10, 0.14, 0.0025);
+  s.initial = s.garment.vertices;
+  const int nf = static_cast<int>(s.garment.faces.rows());
+  const Positions c = FaceCentroids(s.garment.vertices, s.garment.faces, [&] {
+    std::vector<int> all(nf);
+    for (int f = 0; f < nf; ++f) all[f] = f;
+    return all;
+  }());
+  const double eps = 1e-9;
+  auto in_active = [&](int f) { return c(f, 2) > 0.02 && c(f, 2) < 0.12; };
+  s.design.assign(nf, kCloth);
+  if (design == "all_reinforced") {
+    s.design.assign(nf, kReinforced);
+  } else if (design == "line") {
+    // A 4 cm band, centred, joining the clamps: 40 % of the 10 x 10 cm active area.
+    for (int f = 0; f < nf; ++f)
+      if (c(f, 0) > 0.03 - eps && c(f, 0) < 0.07 + eps) s.design[f] = kReinforced;
+  } else if (design == "x") {
+    // Two diagonal bands corner to corner of the active area; width chosen for 40 % of its area.
+    auto band = [&](double w, int f) {
+      const double x = c(f, 0), z = c(f, 2) - 0.02;
+      const double d1 = std::abs(x - z) / std::sqrt(2.0), d2 = std::abs(x + z - 0.10) / std::sqrt(2.0);
+      return std::min(d1, d2) <= 0.5 * w;
+    };
+    const Eigen::VectorXd area = FaceAreas(s.garment.vertices, s.garment.faces);
+    auto fraction = [&](double w) {
+      double a = 0, total = 0;
+      for (int f = 0; f < nf; ++f)
+        if (in_active(f)) { total += area[f]; if (band(w, f)) a += area[f]; }
+      return a / total;
+    };
+    double lo = 0.0, hi = 0.05;
+    for (int it = 0; it < 60; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      (fraction(mid) < 0.40 ? lo : hi) = mid;
+    }
+    for (int f = 0; f < nf; ++f)
+      if (in_active(f) && band(hi, f)) s.design[f] = kReinforced;
+  } else if (design != "all_cloth") {
+    return Status::Error("pull test design '" + design + "' is not all_cloth, all_reinforced, line or x");
+  }
+  s.effects.clamps = true;
+  Clamp fixed, moving;
+  fixed.name = "fixed";
+  moving.name = "moving";
+  for (Eigen::Index v = 0; v < s.garment.vertices.rows(); ++v) {
+    const double z = s.garment.vertices(v, 2);
+    if (z <= 0.02 + eps) fixed.vertices.push_back(v);
+    if (z >= 0.12 - eps) moving.vertices.push_back(v);
+  }
+  moving.displacement_m = Eigen::Vector3d(0, 0, pull_m);
+  s.clamps = {fixed, moving};
+  return s;
+}
+
+SceneSpec SleeveOnLimbScene(const SleeveOptions& o) {
+  LimbShape shape;
+  shape.around = o.around;
+  const TriMesh body_rest = LimbRest(shape);
+  const Positions body_posed = LimbPosed(shape, body_rest.vertices, o.flex_angle_rad);
+  // Garment: faces whose vertices all lie within the sleeve's half-length of the joint (in rest).
+  std::vector<int> garment_faces;
+  for (Eigen::Index f = 0; f < body_rest.faces.rows(); ++f) {
+    bool inside = true;
+    for (int k = 0; k < 3; ++k) inside &= std::abs(body_rest.vertices(body_rest.faces(f, k), 1)) <= o.sleeve_halflength_m + 1e-9;
+    if (inside) garment_faces.push_back(f);
+  }
+  std::vector<int> remap(body_rest.vertices.rows(), -1);
+  std::vector<int> garment_vertices;
+  for (int f : garment_faces)
+    for (int k = 0; k < 3; ++k) {
+      const int v = body_rest.faces(f, k);
+      if (remap[v] < 0) { remap[v] = garment_vertices.size(); garment_vertices.push_back(v); }
+    }
+  SceneSpec s;
+  s.name = "sleeve_on_limb";
+  s.garment.faces.resize(garment_faces.size(), 3);
+  for (size_t i = 0; i < garment_faces.size(); ++i)
+    for (int k = 0; k < 3; ++k) s.garment.faces(i, k) = remap[body_rest.faces(garment_faces[i], k)];
+  s.garment.vertices.resize(garment_vertices.size(), 3);
+  s.initial.resize(garment_vertices.size(), 3);
+  double y_min = 1e300, y_max = -1e300;
+  for (size_t i = 0; i < garment_vertices.size(); ++i) {
+    // The sleeve is a straight tube of the limb's nominal radius (it does not follow the waist), shorter
+    // than the limb section it covers, so it is in tension between its attachment bands.
+    const Eigen::Vector3d p = body_rest.vertices.row(garment_vertices[i]);
+    const double radial = std::hypot(p.x(), p.z());
+    const double scale = o.hoop_tightness * shape.radius_m / radial;
+    if (o.rest_on_body) s.garment.vertices.row(i) = p.transpose();
+    else s.garment.vertices.row(i) << scale * p.x(), o.axial_tightness * p.y(), scale * p.z();
+    s.initial.row(i) = body_posed.row(garment_vertices[i]);
+    y_min = std::min(y_min, p.y());
+    y_max = std::max(y_max, p.y());
+  }
+  // Attachment bands: the ring of faces at each open end.
+  const double band = 0.25 * (2.0 * std::acos(-1.0) * shape.radius_m / o.around) * 4.0;
+  for (size_t i = 0; i < garment_faces.size(); ++i) {
+    double y = 0;
+    for (int k = 0; k < 3; ++k) y += body_rest.vertices(body_rest.faces(garment_faces[i], k), 1) / 3.0;
+    if (y < y_min + band || y > y_max - band) s.attachment_faces.push_back(i);
+  }
+  s.design.assign(garment_faces.size(), o.reinforced ? kReinforced : kCloth);
+  s.body = TriMesh{body_posed, body_rest.faces};
+  s.effects.contact = o.contact;
+  s.effects.attachments = true;
+  return s;
+}
+
+std::vector<std::string> BuiltinSceneNames() {
+  std::vector<std::string> names;
+  for (const PaperMotion& m : PaperMotions()) names.push_back(m.name);
+  for (const char* n : {"sleeve_on_limb", "pull_test_all_cloth", "pull_test_all_reinforced", "pull_test_line", "pull_test_x"})
+    names.push_back(n);
+  return names;
+}
+
+Result<SceneSpec> BuiltinScene(const std::string& name, const BodyMeasurements& measurements) {
+  for (const PaperMotion& m : PaperMotions())
+    if (m.name == name) {
+      Result<ParametricBody> body = BuildParametricBody(measurements);
+      if (!body.ok()) return body.status();
+      return PaperScene(*body, m);
+    }
+  return Status::Error("body measurements apply only to the paper's scenes on the parametric body, not to '" + name + "'");
+}
+
+Result<SceneSpec> BuiltinScene(const std::string& name) {
+  for (const PaperMotion& m : PaperMotions())
+    if (m.name == name) {
+      Result<const ParametricBody*> body = DefaultParametricBody();
+      if (!body.ok()) return body.status();
+      return PaperScene(**body, m);
+    }
+  if (name == "sleeve_on_limb") return SleeveOnLimbScene({});
+  const std::string prefix = "pull_test_";
+  if (name.rfind(prefix, 0) == 0) return PullTestScene(name.substr(prefix.size()));
+  std::string list;
+  for (const auto& n : BuiltinSceneNames()) list += (list.empty() ? "" : ", ") + n;
+  return Status::Error("unknown built-in scene '" + name + "' (built-in scenes: " + list + ")");
+}
+
+Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items) {
+  Result<std::optional<BodyMeasurements>> body = ParseBodyMeasurements(body_items);
+  if (!body.ok()) return body.status();
+  if (std::filesystem::exists(arg)) {
+    if (*body) return Status::Error(arg + ": --body applies to built-in scenes, not to scene files");
+    return LoadScene(arg);
+  }
+  if (arg.find('/') != std::string::npos || (arg.size() > 5 && arg.substr(arg.size() - 5) == ".json"))
+    return Status::Error(arg + ": no such scene file");
+  return ResolveBuiltinScene(arg, body_items);
+}
+
+Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector<std::string>& body_items) {
+  Result<std::optional<BodyMeasurements>> body = ParseBodyMeasurements(body_items);
+  if (!body.ok()) return body.status();
+  return *body ? BuiltinScene(name, **body) : BuiltinScene(name);
+}
+
+
+}  // namespace kgd

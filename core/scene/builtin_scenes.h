@@ -1,0 +1,50 @@
+// The scenes built into the program: the paper's seven on the parametric body (core/scene/paper_scenes.h),
+// the pull test of the paper's 2D validation and a sleeve on a flexing limb; and the one way a scene
+// argument (a file or a built-in name) becomes a scene.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/body/parametric_body.h"
+#include "core/scene/scene.h"
+#include "core/util/status.h"
+
+namespace kgd {
+
+// A scene argument: a scene file if it exists, else the name of a built-in scene (on a parametric body
+// made to the `name=value` measurements `body_items`, when given).
+Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items = {});
+
+// A built-in scene by name only (`kgd scene export`): files and folders of the same name are ignored.
+Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector<std::string>& body_items = {});
+
+// Scenes built into the program (no files needed).
+std::vector<std::string> BuiltinSceneNames();
+Result<SceneSpec> BuiltinScene(const std::string& name);
+// The same with the paper's scenes on a parametric body made to these measurements.
+Result<SceneSpec> BuiltinScene(const std::string& name, const BodyMeasurements& body);
+
+// Pieces of the built-in scenes, for tests and benchmarks.
+// Pull test of the paper's 2D validation: 10 x 14 cm, 2.5 mm grid, 2 cm clamp strips, the far one moved
+// by `pull_m` along +z. design: "all_cloth", "all_reinforced", "line" (4 cm centred band) or "x".
+Result<SceneSpec> PullTestScene(const std::string& design, double pull_m = 0.01);
+// Sleeve on a flexing limb: garment = the limb surface within `sleeve_halflength_m` of the joint. Its rest
+// shape is a straight tube of the limb's nominal radius times `hoop_tightness` (it does not follow the
+// waist: a concavity the cloth can bridge), shortened along the limb by `axial_tightness` (so it is in
+// tension between its attachment bands at both ends). It starts on the body surface in the flexed pose.
+struct SleeveOptions {
+  int around = 32;
+  double flex_angle_rad = 0.8;
+  double sleeve_halflength_m = 0.12;
+  double axial_tightness = 0.85;
+  double hoop_tightness = 1.0;
+  // Paper-like instead: the garment's rest shape is the limb surface in the rest pose itself (tightness
+  // ignored), so it is strained only by the flexion, as the paper initializes garments on STAR bodies.
+  bool rest_on_body = false;
+  ContactModel contact = ContactModel::kUnilateral;
+  bool reinforced = false;
+};
+SceneSpec SleeveOnLimbScene(const SleeveOptions& options);
+
+}  // namespace kgd

@@ -1,0 +1,544 @@
+#include "core/scene/scene_file.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "core/mesh/mesh_io.h"
+
+namespace kgd {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+// Typed access to a JSON scene with messages that name the file and the key path.
+class Reader {
+ public:
+  Reader(std::string file, fs::path dir, std::vector<std::string>* files_read)
+      : file_(std::move(file)), dir_(std::move(dir)), files_read_(files_read) {}
+
+  Status Fail(const std::string& key, const std::string& what) const {
+    return Status::Error(file_ + ": " + key + ": " + what);
+  }
+  Status CheckKeys(const json& obj, const std::string& path, std::initializer_list<const char*> allowed) const {
+    if (!obj.is_object()) return Fail(path.empty() ? "(top level)" : path, "must be an object");
+    const std::set<std::string> ok(allowed.begin(), allowed.end());
+    for (const auto& [k, v] : obj.items())
+      if (!ok.count(k)) {
+        std::string list;
+        for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
+        return Fail(path.empty() ? k : path + "." + k, "unknown key (expected one of: " + list + ")");
+      }
+    return Status::Ok();
+  }
+  Status Number(const json& obj, const std::string& path, const char* key, double* out) const {
+    if (!obj.contains(key)) return Status::Ok();
+    const json& v = obj[key];
+    if (!v.is_number() || !std::isfinite(v.get<double>())) return Fail(path.empty() ? key : path + "." + key, "must be a finite number");
+    *out = v.get<double>();
+    return Status::Ok();
+  }
+  Status Bool(const json& obj, const std::string& path, const char* key, bool* out) const {
+    if (!obj.contains(key)) return Status::Ok();
+    if (!obj[key].is_boolean()) return Fail(path + "." + key, "must be true or false");
+    *out = obj[key].get<bool>();
+    return Status::Ok();
+  }
+  Status Choice(const json& obj, const std::string& path, const char* key, std::initializer_list<const char*> options,
+                std::string* out) const {
+    if (!obj.contains(key)) return Status::Ok();
+    const json& v = obj[key];
+    std::string list;
+    for (const char* o : options) list += std::string(list.empty() ? "" : ", ") + o;
+    if (!v.is_string()) return Fail(path + "." + key, "must be one of: " + list);
+    for (const char* o : options)
+      if (v.get<std::string>() == o) { *out = o; return Status::Ok(); }
+    return Fail(path + "." + key, "'" + v.get<std::string>() + "' is not one of: " + list);
+  }
+  std::string Resolve(const std::string& rel) const {
+    if (files_read_) files_read_->push_back(rel);
+    return (dir_ / rel).lexically_normal().string();
+  }
+  Result<TriMesh> Mesh(const json& v, const std::string& key) const {
+    if (!v.is_string()) return Fail(key, "must be a mesh file path");
+    return ReadMesh(Resolve(v.get<std::string>()));
+  }
+  // An index list given inline or as a file (one integer per line).
+  Result<std::vector<int>> Indices(const json& v, const std::string& key) const {
+    if (v.is_string()) return ReadIndexList(Resolve(v.get<std::string>()));
+    if (!v.is_array()) return Fail(key, "must be a file path or an array of indices");
+    std::vector<int> out;
+    for (size_t i = 0; i < v.size(); ++i) {
+      if (!v[i].is_number_integer()) return Fail(key + "[" + std::to_string(i) + "]", "must be an integer");
+      // Read wide: get<int> would wrap 4294967297 to a valid index.
+      const int64_t index = v[i].is_number_unsigned() && v[i].get<uint64_t>() > uint64_t(INT64_MAX) ? INT64_MAX
+                                                                                                 : v[i].get<int64_t>();
+      if (index < INT32_MIN || index > INT32_MAX)
+        return Fail(key + "[" + std::to_string(i) + "]", "index " + v[i].dump() + " is out of range");
+      out.push_back(static_cast<int>(index));
+    }
+    return out;
+  }
+  Status Vec3(const json& obj, const std::string& path, const char* key, Eigen::Vector3d* out) const {
+    if (!obj.contains(key)) return Status::Ok();
+    const json& v = obj[key];
+    if (!v.is_array() || v.size() != 3) return Fail(path + "." + key, "must be an array of three numbers");
+    for (int k = 0; k < 3; ++k) {
+      if (!v[k].is_number() || !std::isfinite(v[k].get<double>()))
+        return Fail(path + "." + key, "must be an array of three finite numbers");
+      (*out)[k] = v[k].get<double>();
+    }
+    return Status::Ok();
+  }
+  Status MaterialAt(const json& obj, const std::string& path, Material* m) const {
+    if (Status s = CheckKeys(obj, path, {"youngs_modulus_Pa", "poisson_ratio", "thickness_m"}); !s.ok()) return s;
+    if (Status s = Number(obj, path, "youngs_modulus_Pa", &m->youngs_modulus_Pa); !s.ok()) return s;
+    if (Status s = Number(obj, path, "poisson_ratio", &m->poisson_ratio); !s.ok()) return s;
+    return Number(obj, path, "thickness_m", &m->thickness_m);
+  }
+  const std::string& file() const { return file_; }
+
+ private:
+  std::string file_;
+  fs::path dir_;
+  std::vector<std::string>* files_read_;
+};
+
+// The sections of a scene file, read in this order: effects first (they decide what else is read), the
+// garment (cut from the body's motion, or a mesh of its own) and its design, the budget, materials, the
+// body and contact, attachments, clamps, the solver.
+
+Status ReadEffects(const Reader& r, const json& doc, SceneSpec* s) {
+  if (doc.contains("effects")) {
+    const json& e = doc["effects"];
+    KGD_RETURN_IF_ERROR(r.CheckKeys(e, "effects", {"membrane", "relaxation", "fold_barrier", "contact", "friction", "attachments", "clamps"}));
+    KGD_RETURN_IF_ERROR(r.Number(e, "effects", "friction", &s->effects.friction));
+    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "fold_barrier", &s->effects.fold_barrier));
+    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "membrane", &s->effects.membrane));
+    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "attachments", &s->effects.attachments));
+    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "clamps", &s->effects.clamps));
+    std::string relax = "exact", contact = "none";
+    KGD_RETURN_IF_ERROR(r.Choice(e, "effects", "relaxation", {"exact", "authors", "none"}, &relax));
+    KGD_RETURN_IF_ERROR(r.Choice(e, "effects", "contact", {"none", "unilateral", "bilateral"}, &contact));
+    s->effects.relaxation = relax == "exact" ? Relaxation::kExact : relax == "authors" ? Relaxation::kAuthors : Relaxation::kNone;
+    s->effects.contact = contact == "none" ? ContactModel::kNone
+                        : contact == "unilateral" ? ContactModel::kUnilateral : ContactModel::kBilateral;
+  }
+
+  return Status::Ok();
+}
+
+// A garment cut from the body's motion: body.rest, body.deformed and body.frames (one topology), the
+// region (body faces), subdivisions and the attachment body faces.
+Status ReadGarmentCutFromBody(const Reader& r, const json& g, const json& b, const json& a, SceneSpec* s) {
+  for (const char* k : {"rest", "initial"})
+    if (g.contains(k))
+      return r.Fail(std::string("garment.") + k, "not allowed with garment.region (a garment cut from the body takes its shapes from body.rest and body.deformed)");
+  if (b.contains("mesh")) return r.Fail("body.mesh", "not allowed with garment.region (give body.rest and body.deformed)");
+  if (a.contains("faces")) return r.Fail("attachments.faces", "not allowed with garment.region (give attachments.body_faces, body faces)");
+  for (const char* k : {"rest", "deformed"})
+    if (!b.contains(k)) return r.Fail(std::string("body.") + k, "missing (required with garment.region)");
+  Result<TriMesh> rest = r.Mesh(b["rest"], "body.rest");
+  if (!rest.ok()) return rest.status();
+  const std::string rest_file = r.Resolve(b["rest"].get<std::string>());
+  BodyMotion motion;
+  motion.faces = rest->faces;
+  motion.rest = rest->vertices;
+  std::vector<std::string> names = {rest_file};
+  // Every other pose: same vertex count and the very same faces as the rest mesh.
+  auto read_pose = [&](const json& v, const std::string& key, Positions* out) -> Status {
+    Result<TriMesh> pose = r.Mesh(v, key);
+    if (!pose.ok()) return pose.status();
+    const std::string file = r.Resolve(v.get<std::string>());
+    names.push_back(file);
+    if (pose->vertices.rows() != motion.rest.rows())
+      return Status::Error(file + ": has " + std::to_string(pose->vertices.rows()) + " vertices but " + rest_file + " has " +
+                           std::to_string(motion.rest.rows()) + " (all poses must share one topology)");
+    if (pose->faces.rows() != motion.faces.rows())
+      return Status::Error(file + ": has " + std::to_string(pose->faces.rows()) + " faces but " + rest_file + " has " +
+                           std::to_string(motion.faces.rows()) + " (all poses must share one topology)");
+    for (Eigen::Index f = 0; f < motion.faces.rows(); ++f)
+      if (pose->faces.row(f) != motion.faces.row(f))
+        return Status::Error(file + ": face " + std::to_string(f) + " differs from face " + std::to_string(f) + " of " + rest_file +
+                             " (all poses must share one topology)");
+    *out = pose->vertices;
+    return Status::Ok();
+  };
+  KGD_RETURN_IF_ERROR(read_pose(b["deformed"], "body.deformed", &motion.deformed));
+  if (b.contains("frames")) {
+    const json& fr = b["frames"];
+    if (!fr.is_array() || fr.empty()) return r.Fail("body.frames", "must be a non-empty array of mesh file paths");
+    for (size_t i = 0; i < fr.size(); ++i) {
+      motion.frames.emplace_back();
+      KGD_RETURN_IF_ERROR(read_pose(fr[i], "body.frames[" + std::to_string(i) + "]", &motion.frames.back()));
+    }
+  }
+  KGD_RETURN_IF_ERROR(ValidateBodyMotion(motion, names));
+  s->motion = std::move(motion);
+  Result<std::vector<int>> region = r.Indices(g["region"], "garment.region");
+  if (!region.ok()) return region.status();
+  s->garment_region = std::move(region).value();
+  double subdivisions = 0;
+  KGD_RETURN_IF_ERROR(r.Number(g, "garment", "subdivisions", &subdivisions));
+  if (subdivisions != std::floor(subdivisions) || subdivisions < 0 || subdivisions > 4)
+    return r.Fail("garment.subdivisions", "must be an integer in [0, 4]");
+  s->subdivisions = static_cast<int>(subdivisions);
+  std::string attach_name = r.file() + ": attachments.body_faces";
+  if (a.contains("body_faces")) {
+    Result<std::vector<int>> faces = r.Indices(a["body_faces"], "attachments.body_faces");
+    if (!faces.ok()) return faces.status();
+    s->attachment_body_faces = std::move(faces).value();
+    if (a["body_faces"].is_string()) attach_name = r.Resolve(a["body_faces"].get<std::string>());
+  }
+  const std::string region_name = g["region"].is_string() ? r.Resolve(g["region"].get<std::string>()) : r.file() + ": garment.region";
+  KGD_RETURN_IF_ERROR(CutGarmentFromMotion(s, region_name, attach_name));
+  return Status::Ok();
+}
+
+// A garment mesh of its own, with optional start positions of the same topology.
+Status ReadGarmentOfItsOwn(const Reader& r, const json& g, const json& b, const json& a, SceneSpec* s) {
+  if (!g.contains("rest")) return r.Fail("garment.rest", "missing (or give garment.region to cut the garment from the body)");
+  if (g.contains("subdivisions")) return r.Fail("garment.subdivisions", "only allowed with garment.region");
+  for (const char* k : {"rest", "deformed", "frames"})
+    if (b.contains(k)) return r.Fail(std::string("body.") + k, "only allowed with garment.region (for a garment of its own give body.mesh)");
+  if (a.contains("body_faces")) return r.Fail("attachments.body_faces", "only allowed with garment.region (give attachments.faces)");
+  Result<TriMesh> rest = r.Mesh(g["rest"], "garment.rest");
+  if (!rest.ok()) return rest.status();
+  s->garment = std::move(rest).value();
+  KGD_RETURN_IF_ERROR(ValidateMesh(s->garment.vertices, s->garment.faces, r.Resolve(g["rest"].get<std::string>())));
+  s->initial = s->garment.vertices;
+  if (g.contains("initial")) {
+    Result<TriMesh> init = r.Mesh(g["initial"], "garment.initial");
+    if (!init.ok()) return init.status();
+    const std::string init_file = r.Resolve(g["initial"].get<std::string>());
+    if (init->vertices.rows() != s->garment.vertices.rows())
+      return Status::Error(init_file + ": has " + std::to_string(init->vertices.rows()) +
+                           " vertices but the rest mesh has " + std::to_string(s->garment.vertices.rows()));
+    if (init->faces.rows() != s->garment.faces.rows() || init->faces != s->garment.faces)
+      return Status::Error(init_file + ": faces differ from the rest mesh (the two poses must share one topology)");
+    s->initial = init->vertices;
+  }
+  return Status::Ok();
+}
+
+Status ReadDesign(const Reader& r, const json& g, SceneSpec* s) {
+  const int nf = static_cast<int>(s->garment.faces.rows());
+  s->design.assign(nf, kCloth);
+  if (g.contains("design")) {
+    const json& d = g["design"];
+    if (d.is_string()) {
+      const std::string v = d.get<std::string>();
+      if (v == "all_reinforced") s->design.assign(nf, kReinforced);
+      else if (v != "all_cloth") return r.Fail("garment.design", "'" + v + "' is not all_cloth, all_reinforced or an object");
+    } else {
+      KGD_RETURN_IF_ERROR(r.CheckKeys(d, "garment.design", {"reinforced_faces"}));
+      if (d.contains("reinforced_faces")) {
+        Result<std::vector<int>> faces = r.Indices(d["reinforced_faces"], "garment.design.reinforced_faces");
+        if (!faces.ok()) return faces.status();
+        KGD_RETURN_IF_ERROR(ValidateFaceList(*faces, nf, r.file() + ": garment.design.reinforced_faces"));
+        for (int f : *faces) s->design[f] = kReinforced;
+      }
+    }
+  }
+  return Status::Ok();
+}
+
+Status ReadMaterials(const Reader& r, const json& doc, SceneSpec* s) {
+  // Materials.
+  if (doc.contains("materials")) {
+    const json& m = doc["materials"];
+    KGD_RETURN_IF_ERROR(r.CheckKeys(m, "materials", {"lame", "cloth", "reinforced"}));
+    std::string lame = "solid3d";
+    KGD_RETURN_IF_ERROR(r.Choice(m, "materials", "lame", {"solid3d", "plane_stress"}, &lame));
+    s->lame = lame == "solid3d" ? LameConversion::kSolid3D : LameConversion::kPlaneStress;
+    if (m.contains("cloth")) KGD_RETURN_IF_ERROR(r.MaterialAt(m["cloth"], "materials.cloth", &s->cloth));
+    if (m.contains("reinforced")) KGD_RETURN_IF_ERROR(r.MaterialAt(m["reinforced"], "materials.reinforced", &s->reinforced));
+  }
+
+  return Status::Ok();
+}
+
+// Body and contact: the body mesh is read only when the effects ask for contact.
+Status ReadContact(const Reader& r, const json& doc, const json& b, SceneSpec* s) {
+  if (doc.contains("contact")) {
+    KGD_RETURN_IF_ERROR(r.CheckKeys(doc["contact"], "contact", {"stiffness_N_per_m"}));
+    KGD_RETURN_IF_ERROR(r.Number(doc["contact"], "contact", "stiffness_N_per_m", &s->contact_stiffness_N_per_m));
+  }
+  if (!s->motion && s->effects.contact != ContactModel::kNone) {
+    if (!b.contains("mesh")) return r.Fail("body.mesh", "missing, but effects.contact is '" +
+                                                            std::string(s->effects.contact == ContactModel::kUnilateral ? "unilateral" : "bilateral") + "'");
+    Result<TriMesh> body = r.Mesh(b["mesh"], "body.mesh");
+    if (!body.ok()) return body.status();
+    KGD_RETURN_IF_ERROR(ValidateMesh(body->vertices, body->faces, r.Resolve(b["mesh"].get<std::string>())));
+    s->body = std::move(body).value();
+  }
+
+  return Status::Ok();
+}
+
+// Attachments of a garment of its own (a cut garment's come from attachments.body_faces).
+Status ReadAttachmentFaces(const Reader& r, const json& a, SceneSpec* s) {
+  const int nf = static_cast<int>(s->garment.faces.rows());
+  if (a.contains("faces")) {
+    Result<std::vector<int>> faces = r.Indices(a["faces"], "attachments.faces");
+    if (!faces.ok()) return faces.status();
+    KGD_RETURN_IF_ERROR(ValidateFaceList(*faces, nf, r.file() + ": attachments.faces"));
+    s->attachment_faces = std::move(faces).value();
+  }
+  if (s->effects.attachments && s->attachment_faces.empty())
+    return r.Fail(s->motion ? "attachments.body_faces" : "attachments.faces", "missing or empty, but effects.attachments is true");
+
+  return Status::Ok();
+}
+
+Status ReadClamps(const Reader& r, const json& doc, SceneSpec* s) {
+  // Clamps.
+  if (doc.contains("clamps")) {
+    const json& cs = doc["clamps"];
+    if (!cs.is_array()) return r.Fail("clamps", "must be an array");
+    for (size_t i = 0; i < cs.size(); ++i) {
+      const std::string p = "clamps[" + std::to_string(i) + "]";
+      const json& c = cs[i];
+      KGD_RETURN_IF_ERROR(r.CheckKeys(c, p, {"name", "vertices", "axes", "displacement_m"}));
+      Clamp clamp;
+      clamp.name = c.contains("name") && c["name"].is_string() ? c["name"].get<std::string>() : "clamp" + std::to_string(i);
+      if (!c.contains("vertices")) return r.Fail(p + ".vertices", "missing");
+      const json& v = c["vertices"];
+      if (v.is_object()) {
+        KGD_RETURN_IF_ERROR(r.CheckKeys(v, p + ".vertices", {"box_min", "box_max"}));
+        Eigen::Vector3d lo = Eigen::Vector3d::Constant(-1e300), hi = Eigen::Vector3d::Constant(1e300);
+        KGD_RETURN_IF_ERROR(r.Vec3(v, p + ".vertices", "box_min", &lo));
+        KGD_RETURN_IF_ERROR(r.Vec3(v, p + ".vertices", "box_max", &hi));
+        for (Eigen::Index k = 0; k < s->garment.vertices.rows(); ++k) {
+          const Eigen::Vector3d x = s->garment.vertices.row(k);
+          if ((x.array() >= lo.array()).all() && (x.array() <= hi.array()).all()) clamp.vertices.push_back(k);
+        }
+        if (clamp.vertices.empty()) return r.Fail(p + ".vertices", "the box selects no vertex of the rest mesh");
+      } else {
+        Result<std::vector<int>> ids = r.Indices(v, p + ".vertices");
+        if (!ids.ok()) return ids.status();
+        clamp.vertices = std::move(ids).value();
+      }
+      if (c.contains("axes")) {
+        if (!c["axes"].is_string()) return r.Fail(p + ".axes", "must be a string of x, y, z (e.g. \"xyz\" or \"z\")");
+        const std::string axes = c["axes"].get<std::string>();
+        clamp.axes = {false, false, false};
+        for (char ch : axes) {
+          if (ch < 'x' || ch > 'z') return r.Fail(p + ".axes", "'" + axes + "' may contain only x, y and z");
+          clamp.axes[ch - 'x'] = true;
+        }
+      }
+      KGD_RETURN_IF_ERROR(r.Vec3(c, p, "displacement_m", &clamp.displacement_m));
+      s->clamps.push_back(std::move(clamp));
+    }
+  }
+  if (s->effects.clamps && s->clamps.empty()) return r.Fail("clamps", "missing or empty, but effects.clamps is true");
+
+  return Status::Ok();
+}
+
+Status ReadSolver(const Reader& r, const json& doc, SceneSpec* s) {
+  // Solver.
+  if (doc.contains("solver")) {
+    const json& so = doc["solver"];
+    KGD_RETURN_IF_ERROR(r.CheckKeys(so, "solver", {"method", "grad_tol", "max_iterations", "reuse_factorization", "lbfgs_history",
+                                                   "project_contact_crossings", "local_steps"}));
+    std::string method = "newton";
+    KGD_RETURN_IF_ERROR(r.Choice(so, "solver", "method", {"newton", "lbfgs"}, &method));
+    s->solver.method = method == "newton" ? SolverMethod::kNewton : SolverMethod::kLbfgs;
+    KGD_RETURN_IF_ERROR(r.Number(so, "solver", "grad_tol", &s->solver.grad_tol));
+    if (!(s->solver.grad_tol > 0)) return r.Fail("solver.grad_tol", "must be > 0");
+    double it = s->solver.max_iterations, hist = s->solver.lbfgs_history;
+    KGD_RETURN_IF_ERROR(r.Number(so, "solver", "max_iterations", &it));
+    KGD_RETURN_IF_ERROR(r.Number(so, "solver", "lbfgs_history", &hist));
+    if (it < 0 || it > 1e8) return r.Fail("solver.max_iterations", "must be in [0, 1e8]");
+    if (hist < 1 || hist > 1000) return r.Fail("solver.lbfgs_history", "must be in [1, 1000]");
+    s->solver.max_iterations = static_cast<int>(it);
+    s->solver.lbfgs_history = static_cast<int>(hist);
+    KGD_RETURN_IF_ERROR(r.Bool(so, "solver", "reuse_factorization", &s->solver.reuse_factorization));
+    KGD_RETURN_IF_ERROR(r.Bool(so, "solver", "project_contact_crossings", &s->solver.project_contact_crossings));
+    KGD_RETURN_IF_ERROR(r.Bool(so, "solver", "local_steps", &s->solver.local_steps));
+  }
+
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* files_read) {
+  // A stream on a folder opens and then throws on the first read.
+  std::error_code ec;
+  if (fs::is_directory(path, ec))
+    return Status::Error(path + ": is a folder, not a scene file (for a scene exported there, pass " +
+                         (fs::path(path) / "scene.json").string() +
+                         "; a built-in scene's name must not also name a file or folder in the working directory)");
+  std::ifstream in(path);
+  if (!in) return Status::Error(path + ": cannot open scene file");
+  json doc;
+  try {
+    doc = json::parse(in);
+  } catch (const json::parse_error& e) {
+    return Status::Error(path + ": not valid JSON at byte " + std::to_string(e.byte) + ": " + e.what());
+  }
+  const Reader r(path, fs::path(path).parent_path(), files_read);
+  SceneSpec s;
+  KGD_RETURN_IF_ERROR(r.CheckKeys(doc, "", {"name", "description", "budget", "garment", "materials", "effects", "body",
+                                            "contact", "attachments", "clamps", "solver"}));
+  if (doc.contains("name")) {
+    if (!doc["name"].is_string()) return r.Fail("name", "must be a string");
+    s.name = doc["name"].get<std::string>();
+  } else {
+    s.name = fs::path(path).stem().string();
+  }
+  KGD_RETURN_IF_ERROR(ReadEffects(r, doc, &s));
+
+  if (!doc.contains("garment"))
+    return r.Fail("garment", "missing (give garment.rest, or garment.region with body.rest and body.deformed)");
+  const json& g = doc["garment"];
+  KGD_RETURN_IF_ERROR(r.CheckKeys(g, "garment", {"rest", "initial", "region", "subdivisions", "design"}));
+  const json no_object = json::object();
+  const json& b = doc.contains("body") ? doc["body"] : no_object;
+  KGD_RETURN_IF_ERROR(r.CheckKeys(b, "body", {"mesh", "rest", "deformed", "frames", "support_scale"}));
+  KGD_RETURN_IF_ERROR(r.Number(b, "body", "support_scale", &s.body_support_scale));
+  const json& a = doc.contains("attachments") ? doc["attachments"] : no_object;
+  KGD_RETURN_IF_ERROR(r.CheckKeys(a, "attachments", {"faces", "body_faces", "stiffness_N_per_m"}));
+  KGD_RETURN_IF_ERROR(r.Number(a, "attachments", "stiffness_N_per_m", &s.attachment_stiffness_N_per_m));
+  KGD_RETURN_IF_ERROR(g.contains("region") ? ReadGarmentCutFromBody(r, g, b, a, &s) : ReadGarmentOfItsOwn(r, g, b, a, &s));
+  KGD_RETURN_IF_ERROR(ReadDesign(r, g, &s));
+  if (doc.contains("description")) {
+    if (!doc["description"].is_string()) return r.Fail("description", "must be a string");
+    s.description = doc["description"].get<std::string>();
+  }
+  KGD_RETURN_IF_ERROR(r.Number(doc, "", "budget", &s.budget));
+  if (!(s.budget > 0 && s.budget <= 1)) return r.Fail("budget", "must be in (0, 1] (a fraction of the garment area)");
+  KGD_RETURN_IF_ERROR(ReadMaterials(r, doc, &s));
+  KGD_RETURN_IF_ERROR(ReadContact(r, doc, b, &s));
+  KGD_RETURN_IF_ERROR(ReadAttachmentFaces(r, a, &s));
+  KGD_RETURN_IF_ERROR(ReadClamps(r, doc, &s));
+  KGD_RETURN_IF_ERROR(ReadSolver(r, doc, &s));
+
+  // Whole-model checks (materials, clamp indices, ...) with the scene file as context.
+  Result<GarmentModel> model = BuildGarmentModel(s);
+  if (!model.ok()) return Status::Error(path + ": " + model.message());
+  return s;
+}
+
+namespace {
+Status WriteIndexList(const std::string& path, const std::vector<int>& ids) {
+  std::ofstream out(path);
+  if (!out) return Status::Error(path + ": cannot open for writing");
+  for (int i : ids) out << i << '\n';
+  return out ? Status::Ok() : Status::Error(path + ": write failed");
+}
+const char* RelaxationName(Relaxation r) {
+  return r == Relaxation::kExact ? "exact" : r == Relaxation::kAuthors ? "authors" : "none";
+}
+const char* ContactName(ContactModel c) {
+  return c == ContactModel::kNone ? "none" : c == ContactModel::kUnilateral ? "unilateral" : "bilateral";
+}
+nlohmann::ordered_json MaterialJson(const Material& m) {
+  return {{"youngs_modulus_Pa", m.youngs_modulus_Pa}, {"poisson_ratio", m.poisson_ratio}, {"thickness_m", m.thickness_m}};
+}
+}  // namespace
+
+Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
+  const fs::path dir(dir_path);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return Status::Error(dir_path + ": cannot create directory: " + ec.message());
+  nlohmann::ordered_json doc;
+  doc["name"] = s.name;
+  if (!s.description.empty()) doc["description"] = s.description;
+  if (s.budget != 1.0) doc["budget"] = s.budget;
+  if (s.motion) {
+    KGD_RETURN_IF_ERROR(WriteObj((dir / "body_rest.obj").string(), s.motion->rest, s.motion->faces));
+    KGD_RETURN_IF_ERROR(WriteObj((dir / "body_deformed.obj").string(), s.motion->deformed, s.motion->faces));
+    doc["body"]["rest"] = "body_rest.obj";
+    doc["body"]["deformed"] = "body_deformed.obj";
+    if (!s.motion->frames.empty()) {
+      fs::create_directories(dir / "frames", ec);
+      if (ec) return Status::Error((dir / "frames").string() + ": cannot create directory: " + ec.message());
+      nlohmann::ordered_json frames = nlohmann::ordered_json::array();
+      for (size_t i = 0; i < s.motion->frames.size(); ++i) {
+        char file[64];
+        std::snprintf(file, sizeof file, "frames/frame_%02zu.obj", i + 1);
+        KGD_RETURN_IF_ERROR(WriteObj((dir / file).string(), s.motion->frames[i], s.motion->faces));
+        frames.push_back(file);
+      }
+      doc["body"]["frames"] = frames;
+    }
+    doc["body"]["support_scale"] = s.body_support_scale;
+    KGD_RETURN_IF_ERROR(WriteIndexList((dir / "garment_region.txt").string(), s.garment_region));
+    doc["garment"]["region"] = "garment_region.txt";
+    doc["garment"]["subdivisions"] = s.subdivisions;
+  } else {
+    KGD_RETURN_IF_ERROR(WriteObj((dir / "garment_rest.obj").string(), s.garment.vertices, s.garment.faces));
+    doc["garment"]["rest"] = "garment_rest.obj";
+    if (s.initial != s.garment.vertices) {
+      KGD_RETURN_IF_ERROR(WriteObj((dir / "garment_initial.obj").string(), s.initial, s.garment.faces));
+      doc["garment"]["initial"] = "garment_initial.obj";
+    }
+  }
+  std::vector<int> reinforced;
+  for (size_t f = 0; f < s.design.size(); ++f)
+    if (s.design[f] == kReinforced) reinforced.push_back(f);
+  if (reinforced.empty()) doc["garment"]["design"] = "all_cloth";
+  else if (reinforced.size() == s.design.size()) doc["garment"]["design"] = "all_reinforced";
+  else {
+    KGD_RETURN_IF_ERROR(WriteIndexList((dir / "reinforced_faces.txt").string(), reinforced));
+    doc["garment"]["design"] = {{"reinforced_faces", "reinforced_faces.txt"}};
+  }
+  doc["materials"] = {{"lame", s.lame == LameConversion::kSolid3D ? "solid3d" : "plane_stress"},
+                      {"cloth", MaterialJson(s.cloth)},
+                      {"reinforced", MaterialJson(s.reinforced)}};
+  doc["effects"] = {{"membrane", s.effects.membrane}, {"relaxation", RelaxationName(s.effects.relaxation)},
+                    {"fold_barrier", s.effects.fold_barrier},
+                    {"contact", ContactName(s.effects.contact)}, {"friction", s.effects.friction},
+                    {"attachments", s.effects.attachments},
+                    {"clamps", s.effects.clamps}};
+  if (s.body && !s.motion) {
+    KGD_RETURN_IF_ERROR(WriteObj((dir / "body.obj").string(), s.body->vertices, s.body->faces));
+    doc["body"] = {{"mesh", "body.obj"}, {"support_scale", s.body_support_scale}};
+  }
+  if (s.body) doc["contact"] = {{"stiffness_N_per_m", s.contact_stiffness_N_per_m}};
+  if (s.motion) {
+    if (!s.attachment_body_faces.empty()) {
+      KGD_RETURN_IF_ERROR(WriteIndexList((dir / "attachment_body_faces.txt").string(), s.attachment_body_faces));
+      doc["attachments"] = {{"body_faces", "attachment_body_faces.txt"}, {"stiffness_N_per_m", s.attachment_stiffness_N_per_m}};
+    }
+  } else if (!s.attachment_faces.empty()) {
+    KGD_RETURN_IF_ERROR(WriteIndexList((dir / "attachment_faces.txt").string(), s.attachment_faces));
+    doc["attachments"] = {{"faces", "attachment_faces.txt"}, {"stiffness_N_per_m", s.attachment_stiffness_N_per_m}};
+  }
+  if (!s.clamps.empty()) {
+    nlohmann::ordered_json cs = nlohmann::ordered_json::array();
+    for (size_t i = 0; i < s.clamps.size(); ++i) {
+      const Clamp& c = s.clamps[i];
+      const std::string file = "clamp_" + std::to_string(i) + "_vertices.txt";
+      KGD_RETURN_IF_ERROR(WriteIndexList((dir / file).string(), c.vertices));
+      std::string axes;
+      for (int k = 0; k < 3; ++k)
+        if (c.axes[k]) axes += static_cast<char>('x' + k);
+      cs.push_back({{"name", c.name}, {"vertices", file}, {"axes", axes},
+                    {"displacement_m", {c.displacement_m[0], c.displacement_m[1], c.displacement_m[2]}}});
+    }
+    doc["clamps"] = cs;
+  }
+  doc["solver"] = {{"method", s.solver.method == SolverMethod::kNewton ? "newton" : "lbfgs"},
+                   {"grad_tol", s.solver.grad_tol},
+                   {"max_iterations", s.solver.max_iterations},
+                   {"reuse_factorization", s.solver.reuse_factorization},
+                   {"lbfgs_history", s.solver.lbfgs_history},
+                   {"project_contact_crossings", s.solver.project_contact_crossings},
+                   {"local_steps", s.solver.local_steps}};
+  std::ofstream out(dir / "scene.json");
+  if (!out) return Status::Error((dir / "scene.json").string() + ": cannot open for writing");
+  out << doc.dump(2) << '\n';
+  return out ? Status::Ok() : Status::Error((dir / "scene.json").string() + ": write failed");
+}
+
+}  // namespace kgd
