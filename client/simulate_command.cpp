@@ -1,5 +1,6 @@
 #include "client/simulate_command.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -37,11 +38,7 @@ nlohmann::json ResultJson(const SceneSpec& scene, const SimulationResult& r) {
   j["status"] = ToString(r.solve.status);
   if (!r.solve.message.empty()) j["message"] = r.solve.message;
   j["energy_J"] = r.solve.energy_J;
-  j["membrane_energy_J"] = r.solve.energies.membrane_J;
-  j["contact_energy_J"] = r.solve.energies.contact_J;
-  j["attachment_energy_J"] = r.solve.energies.attachment_J;
-  j["fold_barrier_energy_J"] = r.solve.energies.fold_barrier_J;
-  j["friction_energy_J"] = r.solve.energies.friction_J;
+  for (const EnergyBreakdown::Term& t : r.solve.energies.terms) j[std::string(t.name) + "_energy_J"] = t.energy_J;
   j["reinforced_energy_J"] = r.reinforced_energy_J;
   j["reinforced_area_m2"] = r.reinforced_area_m2;
   j["reinforced_density_J_per_m2"] = r.reinforced_density_J_per_m2;
@@ -70,11 +67,17 @@ void PrintHuman(const SceneSpec& scene, const SimulationResult& r) {
   std::printf("scene                 %s (%ld vertices, %ld faces)\n", scene.name.c_str(), (long)r.positions.rows(),
               (long)r.face_density_Pa.size());
   std::printf("status                %s%s%s\n", ToString(s.status), s.message.empty() ? "" : ": ", s.message.c_str());
-  char friction[48] = "";
-  if (scene.effects.friction > 0) std::snprintf(friction, sizeof friction, ", friction %.6g", s.energies.friction_J);
-  std::printf("total energy          %.9g J  (membrane %.6g, contact %.6g, attachments %.6g, fold barrier %.3g%s)\n",
-              s.energy_J, s.energies.membrane_J, s.energies.contact_J, s.energies.attachment_J, s.energies.fold_barrier_J,
-              friction);
+  // The terms with energy, by name ("fold_barrier" printed "fold barrier").
+  std::string parts;
+  for (const EnergyBreakdown::Term& t : s.energies.terms) {
+    if (t.energy_J == 0 && std::string_view(t.name) != "membrane") continue;
+    std::string name = t.name;
+    std::replace(name.begin(), name.end(), '_', ' ');
+    char part[96];
+    std::snprintf(part, sizeof part, "%s%s %.6g", parts.empty() ? "" : ", ", name.c_str(), t.energy_J);
+    parts += part;
+  }
+  std::printf("total energy          %.9g J  (%s)\n", s.energy_J, parts.c_str());
   std::printf("reinforced energy     %.6g J over %.6g m^2 (%.1f %% of the garment)\n", r.reinforced_energy_J,
               r.reinforced_area_m2, r.garment_area_m2 > 0 ? 100.0 * r.reinforced_area_m2 / r.garment_area_m2 : 0.0);
   std::printf("reinforced density    %.6g J/m^2\n", r.reinforced_density_J_per_m2);

@@ -171,4 +171,21 @@ Subdivision SubdivideMidpoint(const Faces& faces, int num_vertices) {
   return out;
 }
 
+Hinges MeshHinges(const Faces& faces) {
+  // Each undirected edge with the faces around it, in face order.
+  std::map<std::pair<int, int>, std::vector<std::pair<int, int>>> edges;  // (a, b) -> (face, opposite vertex)
+  for (Eigen::Index f = 0; f < faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = faces(f, k), b = faces(f, (k + 1) % 3), c = faces(f, (k + 2) % 3);
+      edges[{std::min(a, b), std::max(a, b)}].push_back({static_cast<int>(f), c});
+    }
+  Hinges h;
+  for (const auto& [edge, around] : edges) {
+    if (around.size() != 2) continue;
+    h.vertices.push_back({edge.first, edge.second, around[0].second, around[1].second});
+    h.faces.push_back({around[0].first, around[1].first});
+  }
+  return h;
+}
+
 }  // namespace kgd

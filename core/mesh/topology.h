@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/SparseCore>
+#include <array>
 #include <vector>
 
 #include "core/mesh/trimesh.h"
@@ -15,6 +16,15 @@ std::vector<std::vector<int>> VertexNeighbors(const Faces& faces, int num_vertic
 
 // The faces around each vertex, compressed: those of v are face[begin[v]] .. face[begin[v + 1] - 1], in
 // increasing order (a face that names v twice is listed twice).
+// The interior edges of a mesh, each with the two faces that share it (a hinge): edge a-b, c the third
+// vertex of the first face, d that of the second. Edges of one face (boundary) or of more than two
+// (non-manifold) are left out.
+struct Hinges {
+  std::vector<std::array<int, 4>> vertices;  // a, b, c, d
+  std::vector<std::array<int, 2>> faces;     // the face with c, the face with d
+};
+Hinges MeshHinges(const Faces& faces);
+
 struct VertexFaceIncidence {
   std::vector<int> begin;  // num_vertices + 1 entries
   std::vector<int> face;

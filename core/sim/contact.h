@@ -6,8 +6,10 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <vector>
 
 #include "core/body/body_field.h"
+#include "core/sim/energy_terms.h"
 
 namespace kgd {
 
@@ -27,5 +29,22 @@ struct ContactEvaluation {
 ContactEvaluation EvaluateContactVertex(const BodyField& field, const Eigen::Vector3d& x, NeighborCache* cache,
                                         ContactModel model, double stiffness_N_per_m, Eigen::Vector3d* grad,
                                         Eigen::Matrix3d* hess, bool project_hessian);
+
+// Contact as an energy term of the garment system (energy_term.h), per vertex. It also keeps, per
+// vertex, Phi (NaN where unsupported) and grad Phi of its latest evaluation, which the system records
+// for the line search's projection (GarmentSystem::ProjectCrossingsOntoBody).
+class ContactTerm final : public EnergyTerm {
+ public:
+  explicit ContactTerm(const TermContext& context);
+  Stencil stencil() const override { return Stencil::kVertex; }
+  ElementEnergy Evaluate(int v, const int* stencil, const Positions& x, double* g, double* H) override;
+  double last_phi(int v) const { return phi_[v]; }
+  const Eigen::Vector3d& last_phi_grad(int v) const { return phi_grad_[v]; }
+
+ private:
+  TermContext c_;
+  std::vector<double> phi_;
+  std::vector<Eigen::Vector3d> phi_grad_;
+};
 
 }  // namespace kgd

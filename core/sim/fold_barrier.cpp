@@ -1,8 +1,11 @@
 #include "core/sim/fold_barrier.h"
 
+#include <algorithm>
 #include <Eigen/Geometry>
 #include <cmath>
 #include <limits>
+#include "core/sim/energy_terms.h"
+#include "core/sim/garment_system.h"
 
 namespace kgd {
 
@@ -66,4 +69,39 @@ int CountFoldedFaces(const Positions& reference, const Positions& x, const Faces
   return folded;
 }
 
+// ---------------------------------------------------------------------------------------------------
+// The fold barrier as an energy term of the garment system (energy_term.h): per face, scaled by the
+// shear modulus and thickness of the face's material and its rest area.
+
+namespace {
+
+class FoldBarrierFaceTerm final : public EnergyTerm {
+ public:
+  explicit FoldBarrierFaceTerm(const TermContext& context) : c_(context) {}
+  Stencil stencil() const override { return Stencil::kFace; }
+  ElementEnergy Evaluate(int f, const int* v, const Positions& x, double* g, double* H) override {
+    const Eigen::Vector3d x0 = x.row(v[0]), x1 = x.row(v[1]), x2 = x.row(v[2]);
+    const int m = c_.model.design[f];
+    const double area = c_.elements[f].rest_area_m2;
+    Vector9d gb;
+    Matrix9d Hb;
+    const double eb = EvaluateFoldBarrier(x0, x1, x2, c_.fold_reference[f], area, c_.lame[m].mu_Pa * c_.thickness_m[m] * area,
+                                          g ? &gb : nullptr, H ? &Hb : nullptr, true);
+    // Inactive faces (eb = 0) add nothing, not even zeros.
+    if (!std::isfinite(eb) || !(eb > 0)) return {eb, false};
+    if (g) std::copy_n(gb.data(), gb.size(), g);
+    if (H) std::copy_n(Hb.data(), Hb.size(), H);
+    return {eb, true};
+  }
+  std::string NonFiniteMeaning() const override { return ": folded over"; }
+
+ private:
+  TermContext c_;
+};
+
+}  // namespace
+
+std::unique_ptr<EnergyTerm> MakeFoldBarrierTerm(const TermContext& context) {
+  return context.model.effects.fold_barrier ? std::make_unique<FoldBarrierFaceTerm>(context) : nullptr;
+}
 }  // namespace kgd

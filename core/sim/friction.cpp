@@ -1,7 +1,10 @@
 #include "core/sim/friction.h"
 
+#include <algorithm>
 #include <Eigen/Geometry>
 #include <cmath>
+#include "core/sim/energy_terms.h"
+#include "core/sim/garment_system.h"
 
 namespace kgd {
 
@@ -48,4 +51,34 @@ FrictionVertex LagFriction(const Eigen::Vector3d& anchor, const Eigen::Vector3d&
   return v;
 }
 
+// ---------------------------------------------------------------------------------------------------
+// Friction as an energy term of the garment system (energy_term.h): per vertex, from the lagged data
+// GarmentSystem::LagFriction keeps (none before the first lag).
+
+namespace {
+
+class FrictionVertexTerm final : public EnergyTerm {
+ public:
+  explicit FrictionVertexTerm(const TermContext& context) : c_(context) {}
+  Stencil stencil() const override { return Stencil::kVertex; }
+  ElementEnergy Evaluate(int v, const int*, const Positions& x, double* g, double* H) override {
+    if (c_.friction.empty() || !(c_.friction[v].mu_lambda_N > 0)) return {0.0, false};
+    Eigen::Vector3d gf;
+    Eigen::Matrix3d Hf;
+    const double e = EvaluateFriction(c_.friction[v], x.row(v).transpose(), c_.model.friction_slip_m, g ? &gf : nullptr, H ? &Hf : nullptr);
+    if (g) std::copy_n(gf.data(), gf.size(), g);
+    if (H) std::copy_n(Hf.data(), Hf.size(), H);
+    return {e, true};
+  }
+
+ private:
+  TermContext c_;
+};
+
+}  // namespace
+
+std::unique_ptr<EnergyTerm> MakeFrictionTerm(const TermContext& context) {
+  const Effects& fx = context.model.effects;
+  return fx.friction > 0 && fx.contact != ContactModel::kNone ? std::make_unique<FrictionVertexTerm>(context) : nullptr;
+}
 }  // namespace kgd

@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/SparseCholesky>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -103,10 +104,6 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
   stiffness_scale_ = std::max(mats[0].youngs_modulus_Pa * mats[0].thickness_m, mats[1].youngs_modulus_Pa * mats[1].thickness_m);
   force_scale_ = stiffness_scale_ * mean_edge_;
 
-  attach_index_.assign(nf, -1);
-  if (model_.effects.attachments)
-    for (size_t i = 0; i < model_.attachments.faces.size(); ++i) attach_index_[model_.attachments.faces[i]] = i;
-
   // Degrees of freedom left free by the clamps, and the clamp targets.
   free_index_.assign(3 * nv, 0);
   clamp_target_ = initial;
@@ -122,41 +119,95 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
   for (int& d : free_index_)
     if (d == 0) d = num_free_++;
 
-  // Greedy colouring of faces so that no two faces of one colour share a vertex.
-  {
+  if (model_.effects.contact != ContactModel::kNone) caches_.resize(nv);
+  hinges_ = MeshHinges(model_.faces);
+
+  // The terms the effects switch on, each in the group of its stencil.
+  const TermContext context{model_, elements_, lame_, thickness_, fold_reference_, caches_, friction_, hinges_};
+  for (const TermRegistration& reg : EnergyTermRegistry()) {
+    std::unique_ptr<EnergyTerm> term = reg.make(context);
+    if (!term) continue;
+    if (auto* c = dynamic_cast<ContactTerm*>(term.get())) contact_ = c;
+    term_names_.push_back(reg.name);
+    terms_.push_back(std::move(term));
+  }
+  for (Stencil stencil : {Stencil::kFace, Stencil::kHinge, Stencil::kVertex}) {
+    Group g;
+    g.stencil = stencil;
+    g.k = StencilSize(stencil);
+    for (size_t t = 0; t < terms_.size(); ++t)
+      if (terms_[t]->stencil() == stencil) g.terms.push_back(static_cast<int>(t));
+    // Faces always: their couplings make the Hessian's pattern whatever the terms.
+    if (g.terms.empty() && stencil != Stencil::kFace) continue;
+    std::vector<std::vector<int>> faces_of;  // per element: the faces whose design it reads
+    if (stencil == Stencil::kFace) {
+      g.count = nf;
+      for (int f = 0; f < nf; ++f) {
+        for (int a = 0; a < 3; ++a) g.vertices.push_back(model_.faces(f, a));
+        faces_of.push_back({f});
+      }
+    } else if (stencil == Stencil::kHinge) {
+      g.count = static_cast<int>(hinges_.vertices.size());
+      for (int h = 0; h < g.count; ++h) {
+        for (int a = 0; a < 4; ++a) g.vertices.push_back(hinges_.vertices[h][a]);
+        faces_of.push_back({hinges_.faces[h][0], hinges_.faces[h][1]});
+      }
+    } else {
+      g.count = nv;
+      for (int v = 0; v < nv; ++v) g.vertices.push_back(v);
+      faces_of.resize(nv);
+    }
+    // Greedy colouring so that no two elements of one colour share a vertex.
     std::vector<std::vector<int>> vertex_colors(nv);
-    std::vector<int> color_of(nf);
-    for (int f = 0; f < nf; ++f) {
+    g.color_of.resize(g.count);
+    for (int e = 0; e < g.count; ++e) {
+      const int* v = &g.vertices[g.k * e];
       int c = 0;
       for (;; ++c) {
         bool clash = false;
-        for (int k = 0; k < 3 && !clash; ++k) {
-          const auto& vc = vertex_colors[model_.faces(f, k)];
+        for (int a = 0; a < g.k && !clash; ++a) {
+          const auto& vc = vertex_colors[v[a]];
           clash = std::find(vc.begin(), vc.end(), c) != vc.end();
         }
         if (!clash) break;
       }
-      color_of[f] = c;
-      for (int k = 0; k < 3; ++k) vertex_colors[model_.faces(f, k)].push_back(c);
-      if (c >= static_cast<int>(colors_.size())) colors_.resize(c + 1);
-      colors_[c].push_back(f);
+      g.color_of[e] = c;
+      for (int a = 0; a < g.k; ++a) vertex_colors[v[a]].push_back(c);
+      if (c >= static_cast<int>(g.colors.size())) g.colors.resize(c + 1);
+      g.colors[c].push_back(e);
     }
-    face_color_ = std::move(color_of);
+    // The elements around each vertex and on each face, compressed.
+    auto compress = [](int rows, const std::vector<std::pair<int, int>>& pairs, std::vector<int>* begin, std::vector<int>* items) {
+      begin->assign(rows + 1, 0);
+      for (const auto& [row, item] : pairs) ++(*begin)[row + 1];
+      for (int r = 0; r < rows; ++r) (*begin)[r + 1] += (*begin)[r];
+      items->resize(pairs.size());
+      std::vector<int> next(begin->begin(), begin->end() - 1);
+      for (const auto& [row, item] : pairs) (*items)[next[row]++] = item;
+    };
+    std::vector<std::pair<int, int>> by_vertex, by_face;
+    for (int e = 0; e < g.count; ++e) {
+      for (int a = 0; a < g.k; ++a) by_vertex.push_back({g.vertices[g.k * e + a], e});
+      for (int f : faces_of[e]) by_face.push_back({f, e});
+    }
+    compress(nv, by_vertex, &g.around_vertex_begin, &g.around_vertex);
+    compress(nf, by_face, &g.around_face_begin, &g.around_face);
+    g.mark.assign(g.count, 0);
+    groups_.push_back(std::move(g));
   }
-  vertex_faces_ = VertexFaces(model_.faces, nv);
 
-  // Sparsity: every face couples its three vertices; vertex blocks cover contact.
+  // Sparsity: every element couples its vertices; vertex blocks cover the vertex terms.
   std::vector<Eigen::Triplet<double>> trips;
-  trips.reserve(static_cast<size_t>(nf) * 45 + static_cast<size_t>(nv) * 6);
   auto add = [&](int di, int dj) {
     const int p = free_index_[di], q = free_index_[dj];
     if (p >= 0 && q >= 0 && p <= q) trips.emplace_back(p, q, 0.0);
   };
-  for (int f = 0; f < nf; ++f)
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b)
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) add(3 * model_.faces(f, a) + i, 3 * model_.faces(f, b) + j);
+  for (const Group& g : groups_)
+    for (int e = 0; e < g.count; ++e)
+      for (int a = 0; a < g.k; ++a)
+        for (int b = 0; b < g.k; ++b)
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) add(3 * g.vertices[g.k * e + a] + i, 3 * g.vertices[g.k * e + b] + j);
   for (int v = 0; v < nv; ++v)
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) add(3 * v + i, 3 * v + j);
@@ -176,34 +227,42 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
   };
   // Both (row, col) and (col, row) of a local matrix map to the same upper entry; only one of each
   // mirrored pair (and the diagonal) is kept so that every coupling is added exactly once.
-  face_scatter_.clear();
-  face_scatter_begin_.assign(nf + 1, 0);
-  for (int f = 0; f < nf; ++f) {
-    for (int r = 0; r < 9; ++r)
-      for (int c = 0; c < 9; ++c) {
-        const int dr = 3 * model_.faces(f, r / 3) + r % 3, dc = 3 * model_.faces(f, c / 3) + c % 3;
-        const int p = free_index_[dr], q = free_index_[dc];
-        if (p < 0 || q < 0 || p > q) continue;
-        face_scatter_.push_back({9 * c + r, value_index(dr, dc)});  // column-major local index
-      }
-    face_scatter_begin_[f + 1] = static_cast<int>(face_scatter_.size());
+  for (Group& g : groups_) {
+    const int n = 3 * g.k;
+    g.scatter.clear();
+    g.scatter_begin.assign(g.count + 1, 0);
+    for (int e = 0; e < g.count; ++e) {
+      const int* v = &g.vertices[g.k * e];
+      for (int r = 0; r < n; ++r)
+        for (int c = 0; c < n; ++c) {
+          const int dr = 3 * v[r / 3] + r % 3, dc = 3 * v[c / 3] + c % 3;
+          const int p = free_index_[dr], q = free_index_[dc];
+          if (p < 0 || q < 0 || p > q) continue;
+          g.scatter.push_back({n * c + r, value_index(dr, dc)});  // column-major local index
+        }
+      g.scatter_begin[e + 1] = static_cast<int>(g.scatter.size());
+    }
   }
-  vertex_scatter_.clear();
-  vertex_scatter_begin_.assign(nv + 1, 0);
-  for (int v = 0; v < nv; ++v) {
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) {
-        const int p = free_index_[3 * v + i], q = free_index_[3 * v + j];
-        if (p < 0 || q < 0 || p > q) continue;
-        vertex_scatter_.push_back({3 * j + i, value_index(3 * v + i, 3 * v + j)});
-      }
-    vertex_scatter_begin_[v + 1] = static_cast<int>(vertex_scatter_.size());
-  }
-
-  if (model_.effects.contact != ContactModel::kNone) caches_.resize(nv);
-  face_mark_.assign(nf, 0);
   vertex_mark_.assign(nv, 0);
   entry_mark_.assign(pattern_.nonZeros(), 0);
+}
+
+int GarmentSystem::term_index(std::string_view name) const {
+  for (size_t t = 0; t < term_names_.size(); ++t)
+    if (name == term_names_[t]) return static_cast<int>(t);
+  return -1;
+}
+
+double EnergyBreakdown::operator[](std::string_view name) const {
+  for (const Term& t : terms)
+    if (name == t.name) return t.energy_J;
+  return 0;
+}
+
+double EnergyBreakdown::total_J() const {
+  double total = 0;
+  for (const Term& t : terms) total += t.energy_J;
+  return total;
 }
 
 void GarmentSystem::SetDesign(const std::vector<uint8_t>& design) {
@@ -284,110 +343,87 @@ double GarmentSystem::MaxFoldSafeStep(const Positions& x, const Positions& d) co
   return step;
 }
 
-struct GarmentSystem::FaceTerms {
-  double membrane_J = 0, fold_barrier_J = 0, attachment_J = 0;
-  bool scatter = false;  // false when a term is not finite: the face adds nothing to the derivatives
-  Vector9d g;
-  Matrix9d H;
-
-  void StoreIn(int f, EvaluationRecord* r) const {
-    r->membrane_J[f] = membrane_J;
-    if (!r->fold_barrier_J.empty()) r->fold_barrier_J[f] = fold_barrier_J;
-    if (!r->attachment_J.empty()) r->attachment_J[f] = attachment_J;
-  }
+// One element's terms summed: each term's energy (in the group's term order), and the summed gradient
+// and Hessian (3k and 3k x 3k, column-major) when asked for.
+struct GarmentSystem::ElementSum {
+  static constexpr int kMaxTerms = 8;
+  std::array<double, kMaxTerms> energy_J{};
+  bool scatter = false;  // false when a term is not finite: the element adds nothing to the derivatives
+  std::array<double, 12> g;
+  std::array<double, 144> H;
 };
 
-struct GarmentSystem::VertexTerms {
-  double contact_J = 0, friction_J = 0;
-  double phi = 0;  // NaN where the field has no support
-  Eigen::Vector3d phi_grad;
-  Eigen::Vector3d g;
-  Eigen::Matrix3d H;
-
-  void StoreIn(int v, EvaluationRecord* r) const {
-    r->contact_J[v] = contact_J;
-    if (!r->friction_J.empty()) r->friction_J[v] = friction_J;
-    if (r->phi.size() > 0) {
-      r->phi[v] = phi;
-      r->phi_grad.row(v) = phi_grad.transpose();
-    }
+void GarmentSystem::EvaluateElement(const Group& group, int e, const Positions& x, bool want_grad, bool want_hess, ElementSum* out) {
+  const int n = 3 * group.k, nn = n * n;
+  const int* v = &group.vertices[group.k * e];
+  out->scatter = false;
+  if (want_grad) std::fill_n(out->g.begin(), n, 0.0);
+  if (want_hess) std::fill_n(out->H.begin(), nn, 0.0);
+  std::array<double, 12> ge;
+  std::array<double, 144> He;
+  for (size_t i = 0; i < group.terms.size(); ++i) out->energy_J[i] = 0;
+  for (size_t i = 0; i < group.terms.size(); ++i) {
+    if (want_grad) std::fill_n(ge.begin(), n, 0.0);
+    if (want_hess) std::fill_n(He.begin(), nn, 0.0);
+    const ElementEnergy r = terms_[group.terms[i]]->Evaluate(e, v, x, want_grad ? ge.data() : nullptr, want_hess ? He.data() : nullptr);
+    out->energy_J[i] = r.energy_J;
+    if (!std::isfinite(r.energy_J)) return;
+    if (!r.derivatives) continue;
+    if (want_grad)
+      for (int j = 0; j < n; ++j) out->g[j] += ge[j];
+    if (want_hess)
+      for (int j = 0; j < nn; ++j) out->H[j] += He[j];
   }
-};
-
-void GarmentSystem::EvaluateFace(int f, const Positions& x, bool want_grad, bool want_hess, FaceTerms* t) const {
-  const Effects& fx = model_.effects;
-  const Eigen::Vector3d x0 = x.row(model_.faces(f, 0)), x1 = x.row(model_.faces(f, 1)), x2 = x.row(model_.faces(f, 2));
-  t->membrane_J = t->fold_barrier_J = t->attachment_J = 0;
-  t->scatter = false;
-  if (want_grad) t->g.setZero();
-  if (want_hess) t->H.setZero();
-  const int m = model_.design[f];
-  if (fx.membrane) {
-    Vector9d ge;
-    Matrix9d He;
-    const ElementEvaluation ev = EvaluateMembraneElement(elements_[f], x0, x1, x2, lame_[m], thickness_[m], fx.relaxation,
-                                                         want_grad ? &ge : nullptr, want_hess ? &He : nullptr, true);
-    t->membrane_J = ev.energy_J;
-    if (!std::isfinite(ev.energy_J)) return;
-    if (want_grad) t->g += ge;
-    if (want_hess) t->H += He;
-  }
-  if (fx.fold_barrier) {
-    Vector9d gb;
-    Matrix9d Hb;
-    const double eb = EvaluateFoldBarrier(x0, x1, x2, fold_reference_[f], elements_[f].rest_area_m2,
-                                          lame_[m].mu_Pa * thickness_[m] * elements_[f].rest_area_m2,
-                                          want_grad ? &gb : nullptr, want_hess ? &Hb : nullptr, true);
-    t->fold_barrier_J = eb;
-    if (!std::isfinite(eb)) return;
-    if (eb > 0) {
-      if (want_grad) t->g += gb;
-      if (want_hess) t->H += Hb;
-    }
-  }
-  if (fx.attachments && attach_index_[f] >= 0) {
-    Vector9d ga;
-    t->attachment_J = EvaluateAttachmentFace(model_.attachments, attach_index_[f], x0, x1, x2, want_grad ? &ga : nullptr);
-    if (want_grad) t->g += ga;
-    if (want_hess) {
-      const double c = 2.0 * AttachmentFaceStiffness(model_.attachments) / 9.0;
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) t->H.block<3, 3>(3 * a, 3 * b).diagonal().array() += c;
-    }
-  }
-  t->scatter = true;
+  out->scatter = true;
 }
 
-void GarmentSystem::EvaluateVertex(int v, const Positions& x, bool want_grad, bool want_hess, VertexTerms* t) {
-  const Effects& fx = model_.effects;
-  const ContactEvaluation ce = EvaluateContactVertex(*model_.body, x.row(v).transpose(), &caches_[v], fx.contact,
-                                                     model_.contact_stiffness_N_per_m, want_grad ? &t->g : nullptr,
-                                                     want_hess ? &t->H : nullptr, true);
-  t->contact_J = ce.energy_J;
-  t->phi = ce.supported ? ce.phi_m : std::numeric_limits<double>::quiet_NaN();
-  t->phi_grad = ce.phi_grad;
-  t->friction_J = 0;
-  if (!friction_.empty() && friction_[v].mu_lambda_N > 0) {
-    Eigen::Vector3d gf;
-    Eigen::Matrix3d Hf;
-    t->friction_J = EvaluateFriction(friction_[v], x.row(v).transpose(), model_.friction_slip_m, want_grad ? &gf : nullptr,
-                                     want_hess ? &Hf : nullptr);
-    if (want_grad) t->g += gf;
-    if (want_hess) t->H += Hf;
+void GarmentSystem::StoreElement(const Group& group, int e, const ElementSum& sum, EvaluationRecord* r) const {
+  for (size_t i = 0; i < group.terms.size(); ++i) r->energy_J[group.terms[i]][e] = sum.energy_J[i];
+  if (group.stencil == Stencil::kVertex && contact_ && r->phi.size() > 0) {
+    r->phi[e] = contact_->last_phi(e);
+    r->phi_grad.row(e) = contact_->last_phi_grad(e).transpose();
   }
+}
+
+void GarmentSystem::Scatter(const Group& group, int e, const ElementSum& sum, Eigen::VectorXd* gradient, double* values,
+                            const std::vector<int>* vertex_mark, const std::vector<int>* entry_mark, int changed) const {
+  if (!sum.scatter) return;
+  const int* v = &group.vertices[group.k * e];
+  if (gradient)
+    for (int a = 0; a < group.k; ++a)
+      if (!vertex_mark || (*vertex_mark)[v[a]] == changed)
+        for (int i = 0; i < 3; ++i) (*gradient)[3 * v[a] + i] += sum.g[3 * a + i];
+  if (values)
+    for (int s = group.scatter_begin[e]; s < group.scatter_begin[e + 1]; ++s) {
+      const ScatterEntry& entry = group.scatter[s];
+      if (!entry_mark || (*entry_mark)[entry.value] == changed) values[entry.value] += sum.H[entry.local];
+    }
+}
+
+void GarmentSystem::PrepareRecord(EvaluationRecord* r, bool want_grad) const {
+  r->energy_J.resize(terms_.size());
+  for (const Group& g : groups_)
+    for (int t : g.terms) r->energy_J[t].assign(g.count, 0.0);
+  const int nv = num_vertices();
+  r->phi.resize(contact_ && want_grad ? nv : 0);
+  r->phi_grad.resize(contact_ && want_grad ? nv : 0, 3);
 }
 
 double GarmentSystem::SumEnergies(const EvaluationRecord& r, EnergyBreakdown* breakdown) const {
   // Serial sums in a fixed order keep results bit-identical whatever the thread count, and whether the
   // record was filled by Evaluate or EvaluateFrom.
-  EnergyBreakdown e;
-  for (double fe : r.membrane_J) e.membrane_J += fe;
-  for (double ae : r.attachment_J) e.attachment_J += ae;
-  for (double be : r.fold_barrier_J) e.fold_barrier_J += be;
-  for (double fe : r.friction_J) e.friction_J += fe;
-  for (double ve : r.contact_J) e.contact_J += ve;
-  if (breakdown) *breakdown = e;
-  const double total = e.total_J();
+  std::vector<double> term_J(terms_.size(), 0.0);
+  for (size_t t = 0; t < terms_.size(); ++t)
+    for (double e : r.energy_J[t]) term_J[t] += e;
+  const std::vector<TermRegistration>& registry = EnergyTermRegistry();
+  EnergyBreakdown b;
+  b.terms.resize(registry.size());
+  for (const TermRegistration& reg : registry) {
+    const int t = term_index(reg.name);
+    b.terms[reg.breakdown_order] = {reg.name, t >= 0 ? term_J[t] : 0.0};
+  }
+  const double total = b.total_J();
+  if (breakdown) *breakdown = std::move(b);
   return std::isnan(total) ? std::numeric_limits<double>::infinity() : total;
 }
 
@@ -397,71 +433,45 @@ std::string GarmentSystem::DescribeNonFiniteEnergy(const Positions& x) {
   EvaluationRecord r;
   if (std::isfinite(Evaluate(x, nullptr, nullptr, nullptr, &r))) return "";
   std::string out;
-  auto check = [&out](const std::vector<double>& energy_J, const char* term, const char* element, const char* why) {
-    for (size_t i = 0; i < energy_J.size(); ++i) {
-      if (std::isfinite(energy_J[i])) continue;
-      std::ostringstream m;
-      m << (out.empty() ? "" : "; ") << term << " energy not finite at " << element << " " << i << " (" << energy_J[i]
-        << " J" << why << ")";
-      out += m.str();
-      return;
+  for (const Group& g : groups_)
+    for (int t : g.terms) {
+      const std::vector<double>& energy_J = r.energy_J[t];
+      for (size_t i = 0; i < energy_J.size(); ++i) {
+        if (std::isfinite(energy_J[i])) continue;
+        std::string name = term_names_[t];
+        std::replace(name.begin(), name.end(), '_', ' ');
+        const char* element = g.stencil == Stencil::kFace ? "face" : g.stencil == Stencil::kHinge ? "edge" : "vertex";
+        std::ostringstream m;
+        m << (out.empty() ? "" : "; ") << name << " energy not finite at " << element << " " << i << " (" << energy_J[i] << " J"
+          << terms_[t]->NonFiniteMeaning() << ")";
+        out += m.str();
+        break;
+      }
     }
-  };
-  const bool relaxed = model_.effects.relaxation != Relaxation::kNone;
-  check(r.membrane_J, "membrane", "face", relaxed ? "" : ": inverted or degenerate, and the relaxation is off");
-  check(r.fold_barrier_J, "fold barrier", "face", ": folded over");
-  check(r.attachment_J, "attachment", "face", "");
-  check(r.contact_J, "contact", "vertex", "");
-  check(r.friction_J, "friction", "vertex", "");
   return out.empty() ? "the terms are finite but their sum is not" : out;
 }
 
 double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Eigen::SparseMatrix<double>* hessian,
                                EnergyBreakdown* breakdown, EvaluationRecord* record) {
-  const int nv = num_vertices(), nf = num_faces();
+  const int nv = num_vertices();
   const bool want_grad = gradient != nullptr, want_hess = hessian != nullptr;
   if (want_grad) gradient->setZero(3 * nv);
   double* values = want_hess ? hessian->valuePtr() : nullptr;
   if (want_hess) std::fill(values, values + hessian->nonZeros(), 0.0);
-  const Effects& fx = model_.effects;
-  const bool contact = fx.contact != ContactModel::kNone;
   EvaluationRecord& r = record ? *record : scratch_;
-  r.membrane_J.assign(nf, 0.0);
-  r.attachment_J.assign(fx.attachments && !model_.attachments.faces.empty() ? nf : 0, 0.0);
-  r.fold_barrier_J.assign(fx.fold_barrier ? nf : 0, 0.0);
-  r.contact_J.assign(contact ? nv : 0, 0.0);
-  r.friction_J.assign(contact && !friction_.empty() ? nv : 0, 0.0);
-  r.phi.resize(contact && want_grad ? nv : 0);
-  r.phi_grad.resize(contact && want_grad ? nv : 0, 3);
-
-  // Faces: membrane, fold barrier and attachments. One colour at a time; faces of a colour share no vertex.
-  for (const std::vector<int>& color : colors_) {
+  PrepareRecord(&r, want_grad);
+  // Group by group (faces, hinges, vertices), one colour at a time: elements of a colour share no vertex.
+  for (const Group& g : groups_) {
+    if (g.terms.empty()) continue;
+    for (const std::vector<int>& color : g.colors) {
 #pragma omp parallel for schedule(static)
-    for (size_t i = 0; i < color.size(); ++i) {
-      const int f = color[i];
-      FaceTerms t;
-      EvaluateFace(f, x, want_grad, want_hess, &t);
-      t.StoreIn(f, &r);
-      if (!t.scatter) continue;
-      if (want_grad)
-        for (int a = 0; a < 3; ++a) gradient->segment<3>(3 * model_.faces(f, a)) += t.g.segment<3>(3 * a);
-      if (want_hess)
-        for (int e = face_scatter_begin_[f]; e < face_scatter_begin_[f + 1]; ++e)
-          values[face_scatter_[e].value] += t.H.data()[face_scatter_[e].local];
-    }
-  }
-
-  // Vertices: contact with the body field, friction.
-  if (contact) {
-#pragma omp parallel for schedule(static)
-    for (int v = 0; v < nv; ++v) {
-      VertexTerms t;
-      EvaluateVertex(v, x, want_grad, want_hess, &t);
-      t.StoreIn(v, &r);
-      if (want_grad) gradient->segment<3>(3 * v) += t.g;
-      if (want_hess)
-        for (int e = vertex_scatter_begin_[v]; e < vertex_scatter_begin_[v + 1]; ++e)
-          values[vertex_scatter_[e].value] += t.H.data()[vertex_scatter_[e].local];
+      for (size_t i = 0; i < color.size(); ++i) {
+        const int e = color[i];
+        ElementSum sum;
+        EvaluateElement(g, e, x, want_grad, want_hess, &sum);
+        StoreElement(g, e, sum, &r);
+        Scatter(g, e, sum, gradient, values, nullptr, nullptr, 0);
+      }
     }
   }
   if (record) {
@@ -478,13 +488,13 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
                                    EnergyBreakdown* breakdown, EvaluationRecord* record) {
   const int nv = num_vertices(), nf = num_faces();
   const bool want_grad = gradient != nullptr, want_hess = hessian != nullptr;
-  const bool contact = model_.effects.contact != ContactModel::kNone;
-  const bool usable = base.friction_version == friction_version_ && base.x.rows() == nv &&
-                      static_cast<int>(base.membrane_J.size()) == nf && base.design.size() == model_.design.size() &&
-                      (!want_grad || (base_gradient && base_gradient->size() == 3 * nv &&
-                                      (!contact || base.phi.size() == nv))) &&
-                      (!want_hess || (want_grad && base_hessian && base_hessian->nonZeros() == pattern_.nonZeros() &&
-                                      hessian->nonZeros() == pattern_.nonZeros()));
+  bool usable = base.friction_version == friction_version_ && base.x.rows() == nv && base.energy_J.size() == terms_.size() &&
+                base.design.size() == model_.design.size() &&
+                (!want_grad || (base_gradient && base_gradient->size() == 3 * nv && (!contact_ || base.phi.size() == nv))) &&
+                (!want_hess || (want_grad && base_hessian && base_hessian->nonZeros() == pattern_.nonZeros() &&
+                                hessian->nonZeros() == pattern_.nonZeros()));
+  for (const Group& g : groups_)
+    for (int t : g.terms) usable = usable && static_cast<int>(base.energy_J[t].size()) == g.count;
   std::vector<int> moved, redesigned;
   if (usable) {
     for (int v = 0; v < nv; ++v)
@@ -496,20 +506,16 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
     return Evaluate(x, gradient, hessian, breakdown, record);
 
   if (mark_ > std::numeric_limits<int>::max() - 4) {
-    std::fill(face_mark_.begin(), face_mark_.end(), 0);
+    for (Group& g : groups_) std::fill(g.mark.begin(), g.mark.end(), 0);
     std::fill(vertex_mark_.begin(), vertex_mark_.end(), 0);
     std::fill(entry_mark_.begin(), entry_mark_.end(), 0);
     mark_ = 0;
   }
   mark_ += 2;
-  const int changed = mark_, near = mark_ + 1;  // face marks: terms changed; only recomputed for the sums
+  const int changed = mark_, near = mark_ + 1;  // element marks: terms changed; only recomputed for the sums
   EvaluationRecord& r = record ? *record : scratch_;
   if (&r != &base) {
-    r.membrane_J = base.membrane_J;
-    r.attachment_J = base.attachment_J;
-    r.fold_barrier_J = base.fold_barrier_J;
-    r.contact_J = base.contact_J;
-    r.friction_J = base.friction_J;
+    r.energy_J = base.energy_J;
     if (want_grad) {
       r.phi = base.phi;
       r.phi_grad = base.phi_grad;
@@ -519,41 +525,38 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
     r.phi.resize(0);
     r.phi_grad.resize(0, 3);
   }
-  // The faces whose terms change: those of another design, and those around a moved vertex. (The
-  // vertices' own terms do not depend on the design.)
-  std::vector<int> faces;
-  for (int f : redesigned) {
-    face_mark_[f] = changed;
-    faces.push_back(f);
-  }
-  for (int v : moved)
-    for (int k = vertex_faces_.begin[v]; k < vertex_faces_.begin[v + 1]; ++k) {
-      const int f = vertex_faces_.face[k];
-      if (face_mark_[f] != changed) {
-        face_mark_[f] = changed;
-        faces.push_back(f);
+  // The elements whose terms change: those on a face of another design, and those around a moved vertex.
+  std::vector<std::vector<int>> changed_elements(groups_.size());
+  for (size_t gi = 0; gi < groups_.size(); ++gi) {
+    Group& g = groups_[gi];
+    auto add = [&](int e) {
+      if (g.mark[e] != changed) {
+        g.mark[e] = changed;
+        changed_elements[gi].push_back(e);
       }
-    }
+    };
+    for (int f : redesigned)
+      for (int k = g.around_face_begin[f]; k < g.around_face_begin[f + 1]; ++k) add(g.around_face[k]);
+    for (int v : moved)
+      for (int k = g.around_vertex_begin[v]; k < g.around_vertex_begin[v + 1]; ++k) add(g.around_vertex[k]);
+  }
 
   if (!want_grad && !want_hess) {
+    for (size_t gi = 0; gi < groups_.size(); ++gi) {
+      const Group& g = groups_[gi];
+      if (g.terms.empty()) continue;
+      const std::vector<int>& elements = changed_elements[gi];
 #pragma omp parallel for schedule(static)
-    for (size_t i = 0; i < faces.size(); ++i) {
-      FaceTerms t;
-      EvaluateFace(faces[i], x, false, false, &t);
-      t.StoreIn(faces[i], &r);
-    }
-    if (contact) {
-#pragma omp parallel for schedule(static)
-      for (size_t i = 0; i < moved.size(); ++i) {
-        VertexTerms t;
-        EvaluateVertex(moved[i], x, false, false, &t);
-        t.StoreIn(moved[i], &r);
+      for (size_t i = 0; i < elements.size(); ++i) {
+        ElementSum sum;
+        EvaluateElement(g, elements[i], x, false, false, &sum);
+        StoreElement(g, elements[i], sum, &r);
       }
     }
   } else {
-    // The vertices whose gradient and Hessian block change: those of changed faces, and moved ones. Each
-    // of their entries is summed again from all its terms, in Evaluate's order (faces by colour, then the
-    // vertex's own terms), from zero.
+    // The vertices whose gradient and Hessian entries change: those of changed elements, and moved ones.
+    // Each of their entries is summed again from all its terms, in Evaluate's order (group by group,
+    // colour by colour), from zero.
     std::vector<int> vertices;
     auto add_vertex = [&](int v) {
       if (vertex_mark_[v] != changed) {
@@ -562,65 +565,50 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
       }
     };
     for (int v : moved) add_vertex(v);
-    for (int f : faces)
-      for (int k = 0; k < 3; ++k) add_vertex(model_.faces(f, k));
+    for (size_t gi = 0; gi < groups_.size(); ++gi)
+      for (int e : changed_elements[gi])
+        for (int a = 0; a < groups_[gi].k; ++a) add_vertex(groups_[gi].vertices[groups_[gi].k * e + a]);
     double* values = nullptr;
     if (want_hess) {
       values = hessian->valuePtr();
       if (hessian != base_hessian) std::copy(base_hessian->valuePtr(), base_hessian->valuePtr() + pattern_.nonZeros(), values);
-      for (int f : faces)
-        for (int e = face_scatter_begin_[f]; e < face_scatter_begin_[f + 1]; ++e) {
-          entry_mark_[face_scatter_[e].value] = changed;
-          values[face_scatter_[e].value] = 0.0;
-        }
-      for (int v : moved)
-        for (int e = vertex_scatter_begin_[v]; e < vertex_scatter_begin_[v + 1]; ++e) {
-          entry_mark_[vertex_scatter_[e].value] = changed;
-          values[vertex_scatter_[e].value] = 0.0;
-        }
+      for (size_t gi = 0; gi < groups_.size(); ++gi) {
+        const Group& g = groups_[gi];
+        for (int e : changed_elements[gi])
+          for (int s = g.scatter_begin[e]; s < g.scatter_begin[e + 1]; ++s) {
+            entry_mark_[g.scatter[s].value] = changed;
+            values[g.scatter[s].value] = 0.0;
+          }
+      }
     }
     if (gradient != base_gradient) *gradient = *base_gradient;
     for (int v : vertices) gradient->segment<3>(3 * v).setZero();
-    // Every face that adds to those entries: the faces around their vertices, by colour.
-    std::vector<std::vector<int>> by_color(colors_.size());
-    for (int v : vertices)
-      for (int k = vertex_faces_.begin[v]; k < vertex_faces_.begin[v + 1]; ++k) {
-        const int f = vertex_faces_.face[k];
-        if (face_mark_[f] == changed) continue;
-        if (face_mark_[f] != near) {
-          face_mark_[f] = near;
-          by_color[face_color_[f]].push_back(f);
+    for (size_t gi = 0; gi < groups_.size(); ++gi) {
+      Group& g = groups_[gi];
+      if (g.terms.empty()) continue;
+      // Every element that adds to those entries: the elements around their vertices, by colour.
+      std::vector<std::vector<int>> by_color(g.colors.size());
+      for (int v : vertices)
+        for (int k = g.around_vertex_begin[v]; k < g.around_vertex_begin[v + 1]; ++k) {
+          const int e = g.around_vertex[k];
+          if (g.mark[e] == changed) continue;
+          if (g.mark[e] != near) {
+            g.mark[e] = near;
+            by_color[g.color_of[e]].push_back(e);
+          }
         }
-      }
-    for (int f : faces) by_color[face_color_[f]].push_back(f);
-    for (const std::vector<int>& color : by_color) {
+      for (int e : changed_elements[gi]) by_color[g.color_of[e]].push_back(e);
+      // Vertex terms of every vertex evaluated are stored (unmoved ones give the same values).
+      const bool store_all = g.stencil == Stencil::kVertex;
+      for (const std::vector<int>& color : by_color) {
 #pragma omp parallel for schedule(static)
-      for (size_t i = 0; i < color.size(); ++i) {
-        const int f = color[i];
-        FaceTerms t;
-        EvaluateFace(f, x, true, want_hess, &t);
-        if (face_mark_[f] == changed) t.StoreIn(f, &r);
-        if (!t.scatter) continue;
-        for (int a = 0; a < 3; ++a) {
-          const int v = model_.faces(f, a);
-          if (vertex_mark_[v] == changed) gradient->segment<3>(3 * v) += t.g.segment<3>(3 * a);
+        for (size_t i = 0; i < color.size(); ++i) {
+          const int e = color[i];
+          ElementSum sum;
+          EvaluateElement(g, e, x, true, want_hess, &sum);
+          if (store_all || g.mark[e] == changed) StoreElement(g, e, sum, &r);
+          Scatter(g, e, sum, gradient, values, &vertex_mark_, &entry_mark_, changed);
         }
-        if (want_hess)
-          for (int e = face_scatter_begin_[f]; e < face_scatter_begin_[f + 1]; ++e)
-            if (entry_mark_[face_scatter_[e].value] == changed) values[face_scatter_[e].value] += t.H.data()[face_scatter_[e].local];
-      }
-    }
-    if (contact) {
-#pragma omp parallel for schedule(static)
-      for (size_t i = 0; i < vertices.size(); ++i) {
-        const int v = vertices[i];
-        VertexTerms t;
-        EvaluateVertex(v, x, true, want_hess, &t);
-        t.StoreIn(v, &r);
-        gradient->segment<3>(3 * v) += t.g;
-        if (want_hess)
-          for (int e = vertex_scatter_begin_[v]; e < vertex_scatter_begin_[v + 1]; ++e)
-            if (entry_mark_[vertex_scatter_[e].value] == changed) values[vertex_scatter_[e].value] += t.H.data()[vertex_scatter_[e].local];
       }
     }
   }

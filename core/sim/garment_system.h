@@ -1,9 +1,13 @@
-// The garment-on-body system: the total potential energy of a garment (membrane + contact with the
-// body field + attachments) over the free degrees of freedom left by the clamps, with its gradient
-// and a projected (positive semi-definite) Hessian assembled into a fixed sparse pattern.
+// The garment-on-body system: the total potential energy of a garment, a sum of energy terms
+// (membrane, contact with the body field, attachments, fold barrier, friction, ...: the registry in
+// energy_terms.h), over the free degrees of freedom left by the clamps, with its gradient and a
+// projected (positive semi-definite) Hessian assembled into a fixed sparse pattern.
 //
-// Effects are opt-in: only the terms the model names are built and evaluated. A model without contact
-// needs no body field and none is built.
+// Effects are opt-in: only the terms the model's effects switch on are made and evaluated. A model
+// without contact needs no body field and none is built. Every term is handled alike: elements of
+// its stencil (faces, hinges, vertices) are coloured so that no two of a colour share a vertex and
+// evaluated in parallel colour by colour, their local gradients and Hessians scattered in a fixed
+// order, so results are bit-identical whatever the thread count.
 //
 // Units: positions m, energies J, gradients N, Hessians N/m.
 #pragma once
@@ -13,6 +17,7 @@
 #include <array>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/body/body_field.h"
@@ -20,6 +25,7 @@
 #include "core/mesh/trimesh.h"
 #include "core/sim/attachment.h"
 #include "core/sim/contact.h"
+#include "core/sim/energy_terms.h"
 #include "core/sim/fold_barrier.h"
 #include "core/sim/friction.h"
 #include "core/sim/membrane.h"
@@ -75,21 +81,25 @@ struct GarmentModel {
 // Checks sizes, indices, materials and that the effects have what they need. Names the offending item.
 Status ValidateModel(const GarmentModel& model);
 
+// The energy of each registered term (J), in the registry's breakdown order, 0 for a term that is off.
 struct EnergyBreakdown {
-  double membrane_J = 0;
-  double contact_J = 0;
-  double attachment_J = 0;
-  double fold_barrier_J = 0;
-  double friction_J = 0;
-  double total_J() const { return membrane_J + contact_J + attachment_J + fold_barrier_J + friction_J; }
+  struct Term {
+    const char* name;
+    double energy_J;
+  };
+  std::vector<Term> terms;
+  // The energy of the term named `name` ("membrane", ...); 0 when there is none.
+  double operator[](std::string_view name) const;
+  // The sum in breakdown order.
+  double total_J() const;
 };
 
 // What one evaluation leaves for a later one near it (GarmentSystem::EvaluateFrom): where it was made and
 // each term's energy there. Valid for the system that made it while its design and lagged friction stay.
 struct EvaluationRecord {
   Positions x;
-  std::vector<double> membrane_J, attachment_J, fold_barrier_J;  // per face (empty when the term is off)
-  std::vector<double> contact_J, friction_J;                     // per vertex (empty when the term is off)
+  // Per term of the system (GarmentSystem::terms() order), per element of its stencil.
+  std::vector<std::vector<double>> energy_J;
   // Contact: Phi (NaN where unsupported) and grad Phi per vertex; empty when no gradient was evaluated.
   Eigen::VectorXd phi;
   Positions phi_grad;
@@ -110,6 +120,10 @@ class GarmentSystem {
   // For each of the 3n coordinates, its index among the free ones, or -1 if clamped.
   const std::vector<int>& free_index() const { return free_index_; }
   const std::vector<MembraneElement>& elements() const { return elements_; }
+  // The terms the model switched on, in evaluation order: their registry names, and the index of one
+  // by name (-1 when off).
+  const std::vector<const char*>& term_names() const { return term_names_; }
+  int term_index(std::string_view name) const;
 
   // Changes the material of faces (the BESO loop does this between solves); the pattern is unchanged.
   void SetDesign(const std::vector<uint8_t>& design);
@@ -200,39 +214,56 @@ class GarmentSystem {
   std::vector<Eigen::Vector3d> fold_reference_;  // per face: unit normal at construction (fold barrier)
   Lame lame_[2];
   double thickness_[2];
-  std::vector<int> attach_index_;        // per face: index into attachments.faces, or -1
   std::vector<int> free_index_;
   int num_free_ = 0;
   Positions clamp_target_;
-  std::vector<std::vector<int>> colors_;  // face groups with no shared vertex: parallel scatter without races
+  std::vector<NeighborCache> caches_;
+  std::vector<FrictionVertex> friction_;  // per vertex, lagged (empty: no friction yet)
+  Hinges hinges_;
+  // The terms switched on, in evaluation order, with their registry names and breakdown places.
+  std::vector<std::unique_ptr<EnergyTerm>> terms_;
+  std::vector<const char*> term_names_;
+  ContactTerm* contact_ = nullptr;  // among terms_: its Phi samples go into records
   // Where a local Hessian's entries go: for each kept entry (the upper triangle's, free coordinates
-  // only), its index in the local matrix's column-major data and in the Hessian's values. Faces' lists
-  // run from face_scatter_begin_[f] to [f + 1], vertices' likewise.
+  // only), its index in the local matrix's column-major data and in the Hessian's values.
   struct ScatterEntry {
     int local;
     int value;
   };
-  std::vector<ScatterEntry> face_scatter_, vertex_scatter_;
-  std::vector<int> face_scatter_begin_, vertex_scatter_begin_;
+  // The elements of one stencil kind, the terms summed over them, and all the evaluation needs:
+  // colours, the elements around each vertex and each face, the scatter of their local Hessians.
+  struct Group {
+    Stencil stencil;
+    int k = 0;                              // vertices per element
+    int count = 0;                          // elements
+    std::vector<int> vertices;              // k per element
+    std::vector<int> terms;                 // indices into terms_, evaluation order
+    std::vector<std::vector<int>> colors;
+    std::vector<int> color_of;
+    std::vector<int> around_vertex_begin, around_vertex;  // elements around each vertex (CSR)
+    std::vector<int> around_face_begin, around_face;      // elements on each face (CSR; a redesign changes them)
+    std::vector<ScatterEntry> scatter;
+    std::vector<int> scatter_begin;
+    std::vector<int> mark;
+  };
+  std::vector<Group> groups_;  // evaluation order: faces, hinges, vertices (those with terms, faces always)
   Eigen::SparseMatrix<double> pattern_;
-  std::vector<NeighborCache> caches_;
-  std::vector<FrictionVertex> friction_;  // per vertex, lagged (empty: no friction yet)
   EvaluationRecord scratch_;  // the per-term energies of an evaluation the caller keeps no record of
   double force_scale_ = 1, mean_edge_ = 0, stiffness_scale_ = 1;
   // Changes with the lagged friction: records made before cannot serve.
   int friction_version_ = 0;
 
-  // One face's or vertex's terms at x and, on request, their summed gradient and Hessian; the same
-  // code serves Evaluate and EvaluateFrom so that both sum the same numbers.
-  struct FaceTerms;
-  struct VertexTerms;
-  void EvaluateFace(int f, const Positions& x, bool want_grad, bool want_hess, FaceTerms* out) const;
-  void EvaluateVertex(int v, const Positions& x, bool want_grad, bool want_hess, VertexTerms* out);
+  // One element's terms at x and, on request, their summed gradient and Hessian; the same code serves
+  // Evaluate and EvaluateFrom so that both sum the same numbers.
+  struct ElementSum;
+  void EvaluateElement(const Group& group, int e, const Positions& x, bool want_grad, bool want_hess, ElementSum* out);
+  void StoreElement(const Group& group, int e, const ElementSum& sum, EvaluationRecord* r) const;
+  void Scatter(const Group& group, int e, const ElementSum& sum, Eigen::VectorXd* gradient, double* values,
+               const std::vector<int>* vertex_mark, const std::vector<int>* entry_mark, int changed) const;
   double SumEnergies(const EvaluationRecord& r, EnergyBreakdown* breakdown) const;
-  // EvaluateFrom's bookkeeping: each face's colour, the faces around each vertex, and marks.
-  std::vector<int> face_color_;
-  VertexFaceIncidence vertex_faces_;
-  std::vector<int> face_mark_, vertex_mark_, entry_mark_;
+  void PrepareRecord(EvaluationRecord* r, bool want_grad) const;
+  // EvaluateFrom's marks.
+  std::vector<int> vertex_mark_, entry_mark_;
   int mark_ = 0;
 };
 

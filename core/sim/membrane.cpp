@@ -1,8 +1,12 @@
 #include "core/sim/membrane.h"
 
+#include <algorithm>
 #include <Eigen/Geometry>
 #include <cmath>
 #include <limits>
+
+#include "core/sim/energy_terms.h"
+#include "core/sim/garment_system.h"
 
 namespace kgd {
 namespace {
@@ -245,6 +249,42 @@ ElementEvaluation EvaluateMembraneElement(const MembraneElement& element, const 
   add_mode(out1, n, V1, 1.0, zero3, zero2, 0.0);
   add_mode(out2, n, V2, 1.0, zero3, zero2, 0.0);
   return out;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The membrane as an energy term of the garment system (energy_term.h): per face, the material of the
+// face's design.
+
+namespace {
+
+class MembraneFaceTerm final : public EnergyTerm {
+ public:
+  explicit MembraneFaceTerm(const TermContext& context) : c_(context) {}
+  Stencil stencil() const override { return Stencil::kFace; }
+  ElementEnergy Evaluate(int f, const int* v, const Positions& x, double* g, double* H) override {
+    const Eigen::Vector3d x0 = x.row(v[0]), x1 = x.row(v[1]), x2 = x.row(v[2]);
+    const int m = c_.model.design[f];
+    Vector9d ge;
+    Matrix9d He;
+    const ElementEvaluation ev = EvaluateMembraneElement(c_.elements[f], x0, x1, x2, c_.lame[m], c_.thickness_m[m],
+                                                         c_.model.effects.relaxation, g ? &ge : nullptr, H ? &He : nullptr, true);
+    if (!std::isfinite(ev.energy_J)) return {ev.energy_J, false};
+    if (g) std::copy_n(ge.data(), ge.size(), g);
+    if (H) std::copy_n(He.data(), He.size(), H);
+    return {ev.energy_J, true};
+  }
+  std::string NonFiniteMeaning() const override {
+    return c_.model.effects.relaxation != Relaxation::kNone ? "" : ": inverted or degenerate, and the relaxation is off";
+  }
+
+ private:
+  TermContext c_;
+};
+
+}  // namespace
+
+std::unique_ptr<EnergyTerm> MakeMembraneTerm(const TermContext& context) {
+  return context.model.effects.membrane ? std::make_unique<MembraneFaceTerm>(context) : nullptr;
 }
 
 }  // namespace kgd
