@@ -34,12 +34,13 @@ struct TermContext {
 // A term's factory MakeName (beside the term, in its own .cpp) returns nullptr when the model leaves
 // it off. "key" names it in the energy breakdown (messages print it with spaces); the breakdown lists
 // the terms, and its total sums them, by their place.
-#define KGD_ENERGY_TERMS(X)            \
-  X(MembraneTerm, "membrane", 0)       \
-  X(FoldBarrierTerm, "fold_barrier", 3) \
-  X(AttachmentTerm, "attachment", 2)   \
-  X(ContactTerm, "contact", 1)         \
-  X(FrictionTerm, "friction", 4)
+#define KGD_ENERGY_TERMS(X)               \
+  X(MembraneTerm, "membrane", 0)          \
+  X(FoldBarrierTerm, "fold_barrier", 3)   \
+  X(AttachmentTerm, "attachment", 2)      \
+  X(ContactTerm, "contact", 1)            \
+  X(FrictionTerm, "friction", 4)          \
+  /* a new term: one line above this one */
 
 #define KGD_DECLARE_TERM_FACTORY(Name, key, place) std::unique_ptr<EnergyTerm> Make##Name(const TermContext& context);
 KGD_ENERGY_TERMS(KGD_DECLARE_TERM_FACTORY)
