@@ -115,12 +115,13 @@ class Reader {
 Status ReadEffects(const Reader& r, const json& doc, SceneSpec* s) {
   if (doc.contains("effects")) {
     const json& e = doc["effects"];
-    KGD_RETURN_IF_ERROR(r.CheckKeys(e, "effects", {"membrane", "relaxation", "fold_barrier", "contact", "friction", "attachments", "clamps"}));
+    KGD_RETURN_IF_ERROR(r.CheckKeys(e, "effects", {"membrane", "relaxation", "fold_barrier", "contact", "friction", "attachments", "clamps", "bending"}));
     KGD_RETURN_IF_ERROR(r.Number(e, "effects", "friction", &s->effects.friction));
     KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "fold_barrier", &s->effects.fold_barrier));
     KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "membrane", &s->effects.membrane));
     KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "attachments", &s->effects.attachments));
     KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "clamps", &s->effects.clamps));
+    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "bending", &s->effects.bending));
     std::string relax = "exact", contact = "none";
     KGD_RETURN_IF_ERROR(r.Choice(e, "effects", "relaxation", {"exact", "authors", "none"}, &relax));
     KGD_RETURN_IF_ERROR(r.Choice(e, "effects", "contact", {"none", "unilateral", "bilateral"}, &contact));
@@ -499,7 +500,8 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
                     {"fold_barrier", s.effects.fold_barrier},
                     {"contact", ContactName(s.effects.contact)}, {"friction", s.effects.friction},
                     {"attachments", s.effects.attachments},
-                    {"clamps", s.effects.clamps}};
+                    {"clamps", s.effects.clamps},
+                    {"bending", s.effects.bending}};
   if (s.body && !s.motion) {
     KGD_RETURN_IF_ERROR(WriteObj((dir / "body.obj").string(), s.body->vertices, s.body->faces));
     doc["body"] = {{"mesh", "body.obj"}, {"support_scale", s.body_support_scale}};

@@ -21,7 +21,7 @@
 //                 "reinforced": {...}},
 //   "effects": {"membrane": true, "relaxation": "exact" | "authors" | "none", "fold_barrier": true,
 //               "contact": "none" | "unilateral" | "bilateral", "friction": 0.0 (Coulomb mu; needs contact),
-//               "attachments": false, "clamps": false},
+//               "attachments": false, "clamps": false, "bending": false},
 //   "body": {"mesh": "body_deformed.obj", "support_scale": 2.0},    // read only when contact is on
 //   -- or, with garment.region: the body's motion, every pose with the topology of "rest":
 //   "body": {"rest": "rest.obj", "deformed": "pose.obj", "frames": ["frames/frame_01.obj", ...]},

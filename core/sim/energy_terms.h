@@ -40,6 +40,7 @@ struct TermContext {
   X(AttachmentTerm, "attachment", 2)      \
   X(ContactTerm, "contact", 1)            \
   X(FrictionTerm, "friction", 4)          \
+  X(BendingTerm, "bending", 5)            \
   /* a new term: one line above this one */
 
 #define KGD_DECLARE_TERM_FACTORY(Name, key, place) std::unique_ptr<EnergyTerm> Make##Name(const TermContext& context);

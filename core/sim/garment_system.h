@@ -53,6 +53,8 @@ struct Effects {
   double friction = 0;
   bool attachments = false;
   bool clamps = false;
+  // Discrete-shell bending of the cloth (see bending.h): an extension, off as in the paper.
+  bool bending = false;
 };
 
 // Design values per face.
