@@ -44,6 +44,7 @@ class AttachmentFaceTerm final : public EnergyTerm {
     if (H) {
       // (2 k_f / 9) on the diagonal of every 3x3 block: constant and PSD.
       Eigen::Map<Matrix9d> h(H);
+      h.setZero();
       const double c = 2.0 * AttachmentFaceStiffness(a) / 9.0;
       for (int r = 0; r < 3; ++r)
         for (int s = 0; s < 3; ++s) h.block<3, 3>(3 * r, 3 * s).diagonal().array() += c;

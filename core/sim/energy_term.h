@@ -40,7 +40,8 @@ class EnergyTerm {
   virtual ~EnergyTerm() = default;
   virtual Stencil stencil() const = 0;
   // Element `e` (a face, hinge or vertex index) with stencil vertices `v` (StencilSize entries) at x.
-  // `g` (3k values) and `H` (3k x 3k, column-major) are zero on entry and null when not wanted.
+  // `g` (3k values) and `H` (3k x 3k, column-major) are null when not wanted; when the result says
+  // `derivatives`, the term has written every value of both (their contents on entry are undefined).
   // Called for distinct elements from several threads at once.
   virtual ElementEnergy Evaluate(int e, const int* v, const Positions& x, double* g, double* H) = 0;
   // What a non-finite energy of an element means, for messages, e.g. ": folded over".

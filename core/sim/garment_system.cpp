@@ -363,8 +363,6 @@ void GarmentSystem::EvaluateElement(const Group& group, int e, const Positions& 
   std::array<double, 144> He;
   for (size_t i = 0; i < group.terms.size(); ++i) out->energy_J[i] = 0;
   for (size_t i = 0; i < group.terms.size(); ++i) {
-    if (want_grad) std::fill_n(ge.begin(), n, 0.0);
-    if (want_hess) std::fill_n(He.begin(), nn, 0.0);
     const ElementEnergy r = terms_[group.terms[i]]->Evaluate(e, v, x, want_grad ? ge.data() : nullptr, want_hess ? He.data() : nullptr);
     out->energy_J[i] = r.energy_J;
     if (!std::isfinite(r.energy_J)) return;
