@@ -41,11 +41,17 @@ struct DesignOptions {
   bool json = false, verbose = false;
 };
 
-// The scene a design file was made from, rebuilt and checked against the garment the file stores.
-Result<SceneSpec> SceneOfDesignFile(const std::string& path, const DesignFileHeader& h) {
+// The scene a design file was made from, rebuilt (ResumeDesignJob checks it against the stored garment).
+Result<SceneSpec> RebuildSceneOfDesignFile(const std::string& path, const DesignFileHeader& h) {
   Result<SceneSpec> scene = ResolveScene(h.scene, SplitWords(h.body));
   if (!scene.ok()) return Status::Error(path + ": the job's scene '" + h.scene + "' cannot be rebuilt: " + scene.message());
-  KGD_RETURN_IF_ERROR(CheckStoredGarment(*scene, h, path));
+  return scene;
+}
+
+// ... and checked against the garment the file stores.
+Result<SceneSpec> SceneOfDesignFile(const std::string& path, const DesignFileHeader& h) {
+  Result<SceneSpec> scene = RebuildSceneOfDesignFile(path, h);
+  if (scene.ok()) KGD_RETURN_IF_ERROR(CheckStoredGarment(*scene, h, path));
   return scene;
 }
 
@@ -83,7 +89,7 @@ int RunDesign(const DesignOptions& o) {
     const int n = writer->num_iterations();
     Result<DesignFile> file = ReadDesignFile(path, {.arrays = true, .only_iteration = n - 1});
     if (!file.ok()) return Fail("design", file.message());
-    Result<SceneSpec> scene = SceneOfDesignFile(path, file->header);
+    Result<SceneSpec> scene = RebuildSceneOfDesignFile(path, file->header);
     if (!scene.ok()) return Fail("design", scene.message());
     job = ResumeDesignJob(std::move(scene).value(), std::move(file->header), std::move(file->iterations), path,
                           optimizer.has_max_iterations() ? optimizer.max_iterations() : 0);

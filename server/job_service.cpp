@@ -50,7 +50,7 @@ struct JobService::Impl {
 
   // Commits (HDF5 + SQLite), leases and the open design files go through commit_mu.
   std::mutex commit_mu;
-  // A job's open design file belongs to one lease: a session whose lease was lost (expired, re-leased)
+  // A job's open design file belongs to one lease: a RunJob stream whose lease was lost (expired, re-leased)
   // can neither write to nor close the file of the lease that replaced it.
   struct OpenFile {
     std::string lease_id;
@@ -70,7 +70,7 @@ struct JobService::Impl {
   static constexpr size_t kRecentLimit = 512;
 
   std::atomic<bool> draining{false}, stopping{false};
-  std::atomic<int> active_sessions{0};
+  std::atomic<int> active_streams{0};
   std::thread expiry;
   std::mutex stop_mu;
   bool closed = false;
@@ -434,8 +434,8 @@ ServiceStatus JobService::RunJob(const std::function<bool(v1::WorkerMessage*)>& 
     write(reply);
     return Error(ServiceCode::kFailedPrecondition, reply.error());
   }
-  ++m.active_sessions;
-  // How the lease ends when the session does: by default the worker is lost and the job queued again.
+  ++m.active_streams;
+  // How the lease ends when the stream does: by default the worker is lost and the job queued again.
   v1::JobState end = v1::QUEUED;
   std::string failure = "the worker disconnected";
   bool started = false, ended = false;
@@ -484,7 +484,7 @@ ServiceStatus JobService::RunJob(const std::function<bool(v1::WorkerMessage*)>& 
   Result<v1::JobState> state = m.store->EndLease(job_id, lease_id, end, failure, Now());
   if (state.ok()) m.Log("job " + std::to_string(job_id) + " " + v1::JobState_Name(*state) + (failure.empty() ? "" : " (" + failure + ")"));
   m.Notify();
-  --m.active_sessions;
+  --m.active_streams;
   return cancelled() ? Error(ServiceCode::kCancelled, "stream ended") : ServiceStatus::Ok();
 }
 
@@ -494,7 +494,7 @@ void JobService::Drain(double timeout_s) {
   m.Notify();
   m.Log("draining: no new leases; running jobs stop after their current iteration");
   const double deadline = Now() + timeout_s;
-  while (m.active_sessions > 0 && Now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  while (m.active_streams > 0 && Now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(20));
 }
 
 void JobService::Stop() {

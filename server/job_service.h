@@ -10,7 +10,7 @@
 // at any moment restarts with every acknowledged iteration; on open it trims any HDF5 iteration SQLite
 // never acknowledged and queues the jobs whose workers it lost.
 //
-// Leases: a worker holds a job while its RunJob session is open and its heartbeats arrive within
+// Leases: a worker holds a job while its RunJob stream is open and its heartbeats arrive within
 // lease_duration_s; a lost worker's job is queued again (and resumes from its last acknowledged
 // iteration) until it has had max_attempts attempts.
 //
@@ -84,7 +84,7 @@ class JobService {
   // Leases the oldest queued job, waiting up to request.wait_s() for one (response.leased() false when
   // none came, or the service drains or stops).
   ServiceStatus LeaseJob(const v1::LeaseJobRequest& request, v1::LeaseJobResponse* response, const std::function<bool()>& cancelled);
-  // One worker's session on a leased job: `read` gives the worker's messages (false: the stream
+  // One worker's RunJob stream on a leased job: `read` gives the worker's messages (false: the stream
   // ended), `write` sends the replies. Returns when the worker ends the lease, the stream ends, or the
   // service refuses a report (the lease ends and the job is queued again or fails).
   ServiceStatus RunJob(const std::function<bool(v1::WorkerMessage*)>& read, const std::function<bool(const v1::ServerMessage&)>& write,
@@ -92,7 +92,7 @@ class JobService {
 
   // -- Life cycle ----------------------------------------------------------------------------------
   // Stops leasing and asks running workers to stop after their current iteration (their jobs are
-  // queued again, to resume later); waits up to timeout_s for their sessions to end.
+  // queued again, to resume later); waits up to timeout_s for their streams to end.
   void Drain(double timeout_s);
   // Ends every blocking call (they return CANCELLED or, for LeaseJob, nothing leased); idempotent.
   void Stop();

@@ -126,6 +126,7 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
   const TermContext context{model_, elements_, lame_, thickness_, fold_reference_, caches_, friction_, hinges_};
   for (const TermRegistration& reg : EnergyTermRegistry()) {
     std::unique_ptr<EnergyTerm> term = reg.make(context);
+    registered_term_.push_back(term ? static_cast<int>(terms_.size()) : -1);
     if (!term) continue;
     if (auto* c = dynamic_cast<ContactTerm*>(term.get())) contact_ = c;
     term_names_.push_back(reg.name);
@@ -416,9 +417,9 @@ double GarmentSystem::SumEnergies(const EvaluationRecord& r, EnergyBreakdown* br
   const std::vector<TermRegistration>& registry = EnergyTermRegistry();
   EnergyBreakdown b;
   b.terms.resize(registry.size());
-  for (const TermRegistration& reg : registry) {
-    const int t = term_index(reg.name);
-    b.terms[reg.breakdown_order] = {reg.name, t >= 0 ? term_J[t] : 0.0};
+  for (size_t i = 0; i < registry.size(); ++i) {
+    const int t = registered_term_[i];
+    b.terms[registry[i].breakdown_order] = {registry[i].name, t >= 0 ? term_J[t] : 0.0};
   }
   const double total = b.total_J();
   if (breakdown) *breakdown = std::move(b);

@@ -225,6 +225,7 @@ class GarmentSystem {
   // The terms switched on, in evaluation order, with their registry names and breakdown places.
   std::vector<std::unique_ptr<EnergyTerm>> terms_;
   std::vector<const char*> term_names_;
+  std::vector<int> registered_term_;  // per registry entry: its index in terms_, or -1 when off
   ContactTerm* contact_ = nullptr;  // among terms_: its Phi samples go into records
   // Where a local Hessian's entries go: for each kept entry (the upper triangle's, free coordinates
   // only), its index in the local matrix's column-major data and in the Hessian's values.
