@@ -14,6 +14,7 @@
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
 #include "core/scene/scene_file.h"
+#include "core/scene/scene_keys.h"
 #include "core/scene/builtin_scenes.h"
 
 namespace kgd::cli {
@@ -235,6 +236,17 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
       return;
     }
     std::cout << "wrote " << (std::filesystem::path(*dir) / "scene.json").string() << "\n";
+    *exit_code = 0;
+  });
+
+  CLI::App* keys = scene->add_subcommand("keys", "List every key of a scene file: section, key, what it holds (SI units)");
+  keys->callback([exit_code] {
+    std::string section;
+    for (const SceneKey& k : SceneKeys()) {
+      if (section != k.section) std::printf("%s%s\n", section.empty() ? "" : "\n", k.section);
+      section = k.section;
+      std::printf("  %-26s %s\n", k.key, k.what);
+    }
     *exit_code = 0;
   });
 }

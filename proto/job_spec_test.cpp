@@ -2,6 +2,7 @@
 // scene file and its meshes whole, and iterations survive the trip through their messages bit for bit.
 #include "proto/job_spec.h"
 
+#include <algorithm>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -12,6 +13,8 @@
 #include "proto/records.h"
 #include "core/scene/scene_file.h"
 #include "core/scene/builtin_scenes.h"
+#include "core/scene/scene_keys.h"
+#include <google/protobuf/struct.pb.h>
 
 namespace kgd {
 namespace {
@@ -191,6 +194,36 @@ TEST(SceneSchema, TheSchemaAndTheLoaderKnowTheSameKeys) {
   Result<v1::Scene> wrong_type = ParseSceneJson(R"({"budget": "most"})", "scene.json");
   ASSERT_FALSE(wrong_type.ok());
   EXPECT_NE(wrong_type.message().find("budget"), std::string::npos) << wrong_type.message();
+}
+
+// KGD_SCENE_KEYS and the kgd.v1.Scene message hold the same keys: each message reached from Scene is
+// a section of the list with exactly its field names, and the list's other sections are the object
+// forms of google.protobuf.Value fields (a design, a clamp's box).
+TEST(SceneSchema, TheKeyListIsTheMessage) {
+  std::set<std::string> reached;
+  std::vector<const google::protobuf::Descriptor*> todo = {v1::Scene::descriptor()};
+  while (!todo.empty()) {
+    const google::protobuf::Descriptor* d = todo.back();
+    todo.pop_back();
+    if (!reached.insert(d->name()).second) continue;
+    std::vector<std::string> fields;
+    for (int i = 0; i < d->field_count(); ++i) {
+      const google::protobuf::FieldDescriptor* f = d->field(i);
+      fields.push_back(f->name());
+      if (f->message_type() && f->message_type() != google::protobuf::Value::descriptor()) todo.push_back(f->message_type());
+    }
+    std::vector<std::string> listed = SceneKeysOf(d->name());
+    std::sort(fields.begin(), fields.end());
+    std::sort(listed.begin(), listed.end());
+    EXPECT_EQ(listed, fields) << "section " << d->name() << ": KGD_SCENE_KEYS and kgd.v1." << d->name() << " differ";
+  }
+  std::set<std::string> sections;
+  for (const SceneKey& k : SceneKeys()) sections.insert(k.section);
+  for (const std::string& s : sections) {
+    if (reached.count(s)) continue;
+    EXPECT_TRUE(s == "SceneDesign" || s == "SceneClampBox") << s << " is not a message of kgd.v1.Scene";
+  }
+  EXPECT_EQ(sections.size(), reached.size() + 2);
 }
 
 // The schema carries every BESO setting; a setting added to the lists without its field fails here.

@@ -5,15 +5,24 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <set>
+#include <algorithm>
 
 #include "core/mesh/mesh_io.h"
+#include "core/scene/scene_keys.h"
 
 namespace kgd {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
+
+// "a, b, c"
+template <typename Range>
+std::string JoinKeys(const Range& keys) {
+  std::string list;
+  for (const auto& k : keys) list += std::string(list.empty() ? "" : ", ") + k;
+  return list;
+}
 
 // Typed access to a JSON scene with messages that name the file and the key path.
 class Reader {
@@ -24,15 +33,13 @@ class Reader {
   Status Fail(const std::string& key, const std::string& what) const {
     return Status::Error(file_ + ": " + key + ": " + what);
   }
-  Status CheckKeys(const json& obj, const std::string& path, std::initializer_list<const char*> allowed) const {
+  // `obj` must be an object whose keys are all keys of `section` in KGD_SCENE_KEYS.
+  Status CheckKeys(const json& obj, const std::string& path, const char* section) const {
     if (!obj.is_object()) return Fail(path.empty() ? "(top level)" : path, "must be an object");
-    const std::set<std::string> ok(allowed.begin(), allowed.end());
+    const std::vector<std::string> allowed = SceneKeysOf(section);
     for (const auto& [k, v] : obj.items())
-      if (!ok.count(k)) {
-        std::string list;
-        for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
-        return Fail(path.empty() ? k : path + "." + k, "unknown key (expected one of: " + list + ")");
-      }
+      if (std::find(allowed.begin(), allowed.end(), k) == allowed.end())
+        return Fail(path.empty() ? k : path + "." + k, "unknown key (expected one of: " + JoinKeys(allowed) + ")");
     return Status::Ok();
   }
   Status Number(const json& obj, const std::string& path, const char* key, double* out) const {
@@ -52,8 +59,7 @@ class Reader {
                 std::string* out) const {
     if (!obj.contains(key)) return Status::Ok();
     const json& v = obj[key];
-    std::string list;
-    for (const char* o : options) list += std::string(list.empty() ? "" : ", ") + o;
+    const std::string list = JoinKeys(options);
     if (!v.is_string()) return Fail(path + "." + key, "must be one of: " + list);
     for (const char* o : options)
       if (v.get<std::string>() == o) { *out = o; return Status::Ok(); }
@@ -95,7 +101,7 @@ class Reader {
     return Status::Ok();
   }
   Status MaterialAt(const json& obj, const std::string& path, Material* m) const {
-    if (Status s = CheckKeys(obj, path, {"youngs_modulus_Pa", "poisson_ratio", "thickness_m"}); !s.ok()) return s;
+    if (Status s = CheckKeys(obj, path, "SceneMaterial"); !s.ok()) return s;
     if (Status s = Number(obj, path, "youngs_modulus_Pa", &m->youngs_modulus_Pa); !s.ok()) return s;
     if (Status s = Number(obj, path, "poisson_ratio", &m->poisson_ratio); !s.ok()) return s;
     return Number(obj, path, "thickness_m", &m->thickness_m);
@@ -115,7 +121,7 @@ class Reader {
 Status ReadEffects(const Reader& r, const json& doc, SceneSpec* s) {
   if (doc.contains("effects")) {
     const json& e = doc["effects"];
-    KGD_RETURN_IF_ERROR(r.CheckKeys(e, "effects", {"membrane", "relaxation", "fold_barrier", "contact", "friction", "attachments", "clamps", "bending"}));
+    KGD_RETURN_IF_ERROR(r.CheckKeys(e, "effects", "SceneEffects"));
     KGD_RETURN_IF_ERROR(r.Number(e, "effects", "friction", &s->effects.friction));
     KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "fold_barrier", &s->effects.fold_barrier));
     KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "membrane", &s->effects.membrane));
@@ -236,7 +242,7 @@ Status ReadDesign(const Reader& r, const json& g, SceneSpec* s) {
       if (v == "all_reinforced") s->design.assign(nf, kReinforced);
       else if (v != "all_cloth") return r.Fail("garment.design", "'" + v + "' is not all_cloth, all_reinforced or an object");
     } else {
-      KGD_RETURN_IF_ERROR(r.CheckKeys(d, "garment.design", {"reinforced_faces"}));
+      KGD_RETURN_IF_ERROR(r.CheckKeys(d, "garment.design", "SceneDesign"));
       if (d.contains("reinforced_faces")) {
         Result<std::vector<int>> faces = r.Indices(d["reinforced_faces"], "garment.design.reinforced_faces");
         if (!faces.ok()) return faces.status();
@@ -252,7 +258,7 @@ Status ReadMaterials(const Reader& r, const json& doc, SceneSpec* s) {
   // Materials.
   if (doc.contains("materials")) {
     const json& m = doc["materials"];
-    KGD_RETURN_IF_ERROR(r.CheckKeys(m, "materials", {"lame", "cloth", "reinforced"}));
+    KGD_RETURN_IF_ERROR(r.CheckKeys(m, "materials", "SceneMaterials"));
     std::string lame = "solid3d";
     KGD_RETURN_IF_ERROR(r.Choice(m, "materials", "lame", {"solid3d", "plane_stress"}, &lame));
     s->lame = lame == "solid3d" ? LameConversion::kSolid3D : LameConversion::kPlaneStress;
@@ -266,7 +272,7 @@ Status ReadMaterials(const Reader& r, const json& doc, SceneSpec* s) {
 // Body and contact: the body mesh is read only when the effects ask for contact.
 Status ReadContact(const Reader& r, const json& doc, const json& b, SceneSpec* s) {
   if (doc.contains("contact")) {
-    KGD_RETURN_IF_ERROR(r.CheckKeys(doc["contact"], "contact", {"stiffness_N_per_m"}));
+    KGD_RETURN_IF_ERROR(r.CheckKeys(doc["contact"], "contact", "SceneContact"));
     KGD_RETURN_IF_ERROR(r.Number(doc["contact"], "contact", "stiffness_N_per_m", &s->contact_stiffness_N_per_m));
   }
   if (!s->motion && s->effects.contact != ContactModel::kNone) {
@@ -304,13 +310,13 @@ Status ReadClamps(const Reader& r, const json& doc, SceneSpec* s) {
     for (size_t i = 0; i < cs.size(); ++i) {
       const std::string p = "clamps[" + std::to_string(i) + "]";
       const json& c = cs[i];
-      KGD_RETURN_IF_ERROR(r.CheckKeys(c, p, {"name", "vertices", "axes", "displacement_m"}));
+      KGD_RETURN_IF_ERROR(r.CheckKeys(c, p, "SceneClamp"));
       Clamp clamp;
       clamp.name = c.contains("name") && c["name"].is_string() ? c["name"].get<std::string>() : "clamp" + std::to_string(i);
       if (!c.contains("vertices")) return r.Fail(p + ".vertices", "missing");
       const json& v = c["vertices"];
       if (v.is_object()) {
-        KGD_RETURN_IF_ERROR(r.CheckKeys(v, p + ".vertices", {"box_min", "box_max"}));
+        KGD_RETURN_IF_ERROR(r.CheckKeys(v, p + ".vertices", "SceneClampBox"));
         Eigen::Vector3d lo = Eigen::Vector3d::Constant(-1e300), hi = Eigen::Vector3d::Constant(1e300);
         KGD_RETURN_IF_ERROR(r.Vec3(v, p + ".vertices", "box_min", &lo));
         KGD_RETURN_IF_ERROR(r.Vec3(v, p + ".vertices", "box_max", &hi));
@@ -346,8 +352,7 @@ Status ReadSolver(const Reader& r, const json& doc, SceneSpec* s) {
   // Solver.
   if (doc.contains("solver")) {
     const json& so = doc["solver"];
-    KGD_RETURN_IF_ERROR(r.CheckKeys(so, "solver", {"method", "grad_tol", "max_iterations", "reuse_factorization", "lbfgs_history",
-                                                   "project_contact_crossings", "local_steps"}));
+    KGD_RETURN_IF_ERROR(r.CheckKeys(so, "solver", "SceneSolver"));
     std::string method = "newton";
     KGD_RETURN_IF_ERROR(r.Choice(so, "solver", "method", {"newton", "lbfgs"}, &method));
     s->solver.method = method == "newton" ? SolverMethod::kNewton : SolverMethod::kLbfgs;
@@ -387,8 +392,7 @@ Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* f
   }
   const Reader r(path, fs::path(path).parent_path(), files_read);
   SceneSpec s;
-  KGD_RETURN_IF_ERROR(r.CheckKeys(doc, "", {"name", "description", "budget", "garment", "materials", "effects", "body",
-                                            "contact", "attachments", "clamps", "solver"}));
+  KGD_RETURN_IF_ERROR(r.CheckKeys(doc, "", "Scene"));
   if (doc.contains("name")) {
     if (!doc["name"].is_string()) return r.Fail("name", "must be a string");
     s.name = doc["name"].get<std::string>();
@@ -400,13 +404,13 @@ Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* f
   if (!doc.contains("garment"))
     return r.Fail("garment", "missing (give garment.rest, or garment.region with body.rest and body.deformed)");
   const json& g = doc["garment"];
-  KGD_RETURN_IF_ERROR(r.CheckKeys(g, "garment", {"rest", "initial", "region", "subdivisions", "design"}));
+  KGD_RETURN_IF_ERROR(r.CheckKeys(g, "garment", "SceneGarment"));
   const json no_object = json::object();
   const json& b = doc.contains("body") ? doc["body"] : no_object;
-  KGD_RETURN_IF_ERROR(r.CheckKeys(b, "body", {"mesh", "rest", "deformed", "frames", "support_scale"}));
+  KGD_RETURN_IF_ERROR(r.CheckKeys(b, "body", "SceneBody"));
   KGD_RETURN_IF_ERROR(r.Number(b, "body", "support_scale", &s.body_support_scale));
   const json& a = doc.contains("attachments") ? doc["attachments"] : no_object;
-  KGD_RETURN_IF_ERROR(r.CheckKeys(a, "attachments", {"faces", "body_faces", "stiffness_N_per_m"}));
+  KGD_RETURN_IF_ERROR(r.CheckKeys(a, "attachments", "SceneAttachments"));
   KGD_RETURN_IF_ERROR(r.Number(a, "attachments", "stiffness_N_per_m", &s.attachment_stiffness_N_per_m));
   KGD_RETURN_IF_ERROR(g.contains("region") ? ReadGarmentCutFromBody(r, g, b, a, &s) : ReadGarmentOfItsOwn(r, g, b, a, &s));
   KGD_RETURN_IF_ERROR(ReadDesign(r, g, &s));
