@@ -122,12 +122,16 @@ int RunDesign(const DesignOptions& o) {
   Status write_status = Status::Ok();
   std::vector<double> recent;  // seconds of the last iterations, for the ETA
   double elapsed = 0;
-  // Metrics of the last iteration stored (arrays are not needed for the summary).
-  BesoIteration end;
-  if (!job->history.empty()) {
-    end = job->history.back();
-    end.positions.resize(0, 3);
-  }
+  // Metrics of every iteration stored (arrays are not needed for the summary and the stop reason).
+  std::vector<BesoIteration> metrics = job->history;
+  auto metrics_only = [](BesoIteration it) {
+    it.positions.resize(0, 3);
+    it.energy_density_Pa.resize(0);
+    it.sensitivity.resize(0);
+    it.design.clear();
+    return it;
+  };
+  for (BesoIteration& it : metrics) it = metrics_only(std::move(it));
   auto on_iteration = [&](const BesoIteration& it) {
     write_status = writer->Append(it);
     elapsed += it.total_s;
@@ -149,10 +153,7 @@ int RunDesign(const DesignOptions& o) {
       std::printf("%s\n", j.dump().c_str());
     }
     std::fflush(stdout);
-    end.iteration = it.iteration;
-    end.area_fraction = it.area_fraction;
-    end.density_ratio = it.density_ratio;
-    end.reinforced_density_J_per_m2 = it.reinforced_density_J_per_m2;
+    metrics.push_back(metrics_only(it));
     return write_status.ok() && !g_interrupted;
   };
   const Result<std::vector<BesoIteration>> run = RunDesignJob(*job, on_iteration);
@@ -161,17 +162,22 @@ int RunDesign(const DesignOptions& o) {
   if (bar) std::printf("\n");
   if (!write_status.ok()) return Fail("design", write_status.message());
   if (!run.ok()) return Fail("design", run.message() + " (iterations so far are in " + path + ")", 3);
+  const BesoIteration end = metrics.empty() ? BesoIteration{} : metrics.back();
   if (g_interrupted) {
     std::fprintf(stderr, "kgd design: stopped after iteration %d; continue with: kgd design --resume %s\n", end.iteration, path.c_str());
     return 130;
   }
+  const BesoEnd how = BesoEndOf(metrics, settings, job->header.rest_area_m2.sum());
+  const std::string why = DescribeBesoEnd(how, metrics, settings);
   if (o.json || !bar) {
     nlohmann::ordered_json j{{"event", "done"}, {"file", path}, {"iterations", end.iteration + 1}, {"area_fraction", end.area_fraction},
-                             {"density_ratio", end.density_ratio}, {"seconds", elapsed}};
+                             {"density_ratio", end.density_ratio}, {"seconds", elapsed}, {"end", why}};
     std::printf("%s\n", j.dump().c_str());
+  } else if (how == BesoEnd::kNothingToResist) {
+    std::printf("done: stopped at iteration 0, %s; wrote %s\n", why.c_str(), path.c_str());
   } else {
-    std::printf("done: %d iterations, area %.1f%%, reinforced energy density %.4g J/m^2 = %.3f x fully reinforced, %s; wrote %s\n",
-                end.iteration + 1, 100 * end.area_fraction, end.reinforced_density_J_per_m2, end.density_ratio,
+    std::printf("done: %d iterations (%s), area %.1f%%, reinforced energy density %.4g J/m^2 = %.3f x fully reinforced, %s; wrote %s\n",
+                end.iteration + 1, why.c_str(), 100 * end.area_fraction, end.reinforced_density_J_per_m2, end.density_ratio,
                 Duration(elapsed).c_str(), path.c_str());
   }
   return 0;
@@ -191,6 +197,7 @@ int RunDesigns(const std::string& path, bool json) {
     j["garment_area_m2"] = h.rest_area_m2.sum();
     j["iterations"] = nlohmann::json::array();
     for (const BesoIteration& it : f->iterations) j["iterations"].push_back(MetricsJson(MetricsToProto(it)));
+    j["end"] = DescribeBesoEnd(BesoEndOf(f->iterations, h.settings, h.rest_area_m2.sum()), f->iterations, h.settings);
     std::printf("%s\n", j.dump().c_str());
     return 0;
   }
@@ -207,9 +214,10 @@ int RunDesigns(const std::string& path, bool json) {
                 it.density_ratio, it.solver_iterations, it.simulation_s, it.total_s);
     total += it.total_s;
   }
-  const bool finished = BesoFinished(f->iterations, h.settings, h.rest_area_m2.sum());
-  std::printf("%zu iterations, %s%s\n", f->iterations.size(), Duration(total).c_str(),
-              finished ? "; finished" : "; not finished (kgd design --resume FILE continues it)");
+  const BesoEnd end = BesoEndOf(f->iterations, h.settings, h.rest_area_m2.sum());
+  std::printf("%zu iterations, %s; %s\n", f->iterations.size(), Duration(total).c_str(),
+              end == BesoEnd::kRunning ? "not finished (kgd design --resume FILE continues it)"
+                                       : ("finished: " + DescribeBesoEnd(end, f->iterations, h.settings)).c_str());
   return 0;
 }
 

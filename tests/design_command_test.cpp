@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "store/design_file.h"
 
@@ -181,6 +182,27 @@ TEST_F(DesignCommand, ResumeNamesWhatChangedInTheScene) {
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("no longer gives the garment stored in the file (rest vertex 7 moved)"), std::string::npos)
       << r.output;
+}
+
+// A body that does not move gives the garment nothing to resist: the job stops after iteration 0,
+// says why, exits 0, and the design file says so too.
+TEST_F(DesignCommand, AMotionlessSceneStopsAtOnceAndSaysWhy) {
+  CommandRun r = Kgd("scene export knee_flexion " + Path("scene"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  nlohmann::json scene;
+  std::ifstream(Path("scene/scene.json")) >> scene;
+  scene["body"]["deformed"] = scene["body"]["rest"];
+  scene["body"]["frames"] = {scene["body"]["rest"]};
+  std::ofstream(Path("scene/scene.json")) << scene.dump(2);
+  r = Kgd("design " + Path("scene/scene.json") + " --out " + Path("d.h5"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("\"end\":\"nothing to resist: the motion puts"), std::string::npos) << r.output;
+  Result<DesignFile> f = ReadDesignFile(Path("d.h5"), {.arrays = false});
+  ASSERT_TRUE(f.ok()) << f.message();
+  EXPECT_EQ(f->iterations.size(), 1u);
+  r = Kgd("designs " + Path("d.h5"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("finished: nothing to resist"), std::string::npos) << r.output;
 }
 
 TEST_F(DesignCommand, EvaluateAndBaselinesReadTheFile) {

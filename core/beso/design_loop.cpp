@@ -1,6 +1,7 @@
 #include "core/beso/design_loop.h"
 
 #include <chrono>
+#include <cstdio>
 
 #include "core/scene/simulate.h"
 
@@ -21,11 +22,35 @@ std::vector<double> Objective(const std::vector<BesoIteration>& history) {
 
 }  // namespace
 
+BesoEnd BesoEndOf(const std::vector<BesoIteration>& history, const BesoSettings& settings, double garment_area_m2) {
+  if (history.empty()) return BesoEnd::kRunning;
+  if (history.front().iteration == 0 && !(history.front().reinforced_energy_J > kNothingToResist_J)) return BesoEnd::kNothingToResist;
+  if (history.back().iteration >= settings.max_iterations) return BesoEnd::kIterationLimit;
+  if (BesoConverged(Objective(history), TargetReached(history.back().target_area_m2, settings.budget * garment_area_m2), settings.tau,
+                    settings.converge_window))
+    return BesoEnd::kConverged;
+  return BesoEnd::kRunning;
+}
+
 bool BesoFinished(const std::vector<BesoIteration>& history, const BesoSettings& settings, double garment_area_m2) {
-  if (history.empty()) return false;
-  if (history.back().iteration >= settings.max_iterations) return true;
-  return BesoConverged(Objective(history), TargetReached(history.back().target_area_m2, settings.budget * garment_area_m2),
-                       settings.tau, settings.converge_window);
+  return BesoEndOf(history, settings, garment_area_m2) != BesoEnd::kRunning;
+}
+
+std::string DescribeBesoEnd(BesoEnd end, const std::vector<BesoIteration>& history, const BesoSettings& settings) {
+  switch (end) {
+    case BesoEnd::kRunning: return "running";
+    case BesoEnd::kConverged: return "converged";
+    case BesoEnd::kIterationLimit: return "iteration limit (" + std::to_string(settings.max_iterations) + ")";
+    case BesoEnd::kNothingToResist: {
+      char buf[200];
+      std::snprintf(buf, sizeof buf,
+                    "nothing to resist: the motion puts %.3g J into the fully reinforced garment (at most %.0e J: the body does not "
+                    "move, or moves rigidly), so no design can resist it",
+                    history.front().reinforced_energy_J, kNothingToResist_J);
+      return buf;
+    }
+  }
+  return "";
 }
 
 Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const BesoSettings& settings,

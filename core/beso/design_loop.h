@@ -9,6 +9,7 @@
 #pragma once
 
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "core/beso/beso.h"
@@ -61,7 +62,24 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene, const BesoSet
                                            const std::function<bool(const BesoIteration&)>& on_iteration = {},
                                            const std::vector<BesoIteration>* resume = nullptr);
 
-// True when `history` (iterations 0..k) has met the stop rule: target area reached and flat objective.
+// How a run stands after `history` (iterations 0..k): still running, or why it ended.
+enum class BesoEnd {
+  kRunning,
+  kConverged,        // target area reached and the objective flat over the window
+  kIterationLimit,   // settings.max_iterations reached
+  kNothingToResist,  // the motion puts no energy into the fully reinforced garment (iteration 0)
+};
+
+// Below this reinforced energy at iteration 0 (J) a motion has nothing for a design to resist: a body
+// that does not move, or moves rigidly, leaves a garment at rest with (numerically) zero energy.
+inline constexpr double kNothingToResist_J = 1e-9;
+
+BesoEnd BesoEndOf(const std::vector<BesoIteration>& history, const BesoSettings& settings, double garment_area_m2);
+
+// True when `history` has ended (any BesoEnd but kRunning).
 bool BesoFinished(const std::vector<BesoIteration>& history, const BesoSettings& settings, double garment_area_m2);
+
+// One line for people: "converged", "iteration limit (400)", "nothing to resist: ...".
+std::string DescribeBesoEnd(BesoEnd end, const std::vector<BesoIteration>& history, const BesoSettings& settings);
 
 }  // namespace kgd

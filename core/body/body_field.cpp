@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <nanoflann.hpp>
 
 namespace kgd {
@@ -131,6 +132,40 @@ FieldSample BodyField::Evaluate(const Eigen::Vector3d& x, NeighborCache* cache, 
     s.hess = (hN - s.grad * dD.transpose() - dD * s.grad.transpose() - s.phi_m * hD) / D;
   }
   return s;
+}
+
+Result<Positions> PlaceOnZeroSet(const BodyField& field, const Positions& points, const std::string& what) {
+  constexpr double kTolerance_m = 1e-12;
+  constexpr int kMaxSteps = 50;
+  const double max_step = 0.25 * field.mean_support_radius_m();
+  Positions out = points;
+  NeighborCache cache;
+  for (Eigen::Index i = 0; i < points.rows(); ++i) {
+    Eigen::Vector3d x = points.row(i).transpose();
+    FieldSample s = field.Evaluate(x, &cache, true, false);
+    int steps = 0;
+    for (; s.supported && std::abs(s.phi_m) > kTolerance_m && steps < kMaxSteps; ++steps) {
+      const double g2 = s.grad.squaredNorm();
+      if (!(g2 > 1e-12)) break;
+      Eigen::Vector3d step = -s.phi_m / g2 * s.grad;
+      if (step.norm() > max_step) step *= max_step / step.norm();
+      x += step;
+      s = field.Evaluate(x, &cache, true, false);
+    }
+    auto where = [&] {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, " %ld at (%.6g, %.6g, %.6g) m", static_cast<long>(i), points(i, 0), points(i, 1), points(i, 2));
+      return what + buf;
+    };
+    if (!s.supported)
+      return Status::Error(where() + ": is farther from the body than the body field's support (about " +
+                           std::to_string(field.mean_support_radius_m()) + " m), so it cannot be placed on the body surface");
+    if (!(std::abs(s.phi_m) <= kTolerance_m))
+      return Status::Error(where() + ": cannot be placed on the body surface (Phi = " + std::to_string(s.phi_m) + " m after " +
+                           std::to_string(steps) + " steps)");
+    out.row(i) = x.transpose();
+  }
+  return out;
 }
 
 }  // namespace kgd

@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 #include <limits>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/mesh/trimesh.h"
@@ -67,5 +68,12 @@ class BodyField {
   struct Index;
   std::unique_ptr<Index> index_;
 };
+
+// Each point moved onto the field's zero set (the smooth body surface): Newton steps along the
+// gradient, x <- x - Phi grad / |grad|^2, each at most a quarter of the mean support radius long, until
+// |Phi| <= 1e-12 m. For points already within the support (e.g. on the body mesh, which the IMLS
+// surface smooths by a fraction of a millimetre). Errors name the point (`what` and its index) when it
+// lies outside the support or the steps do not settle.
+Result<Positions> PlaceOnZeroSet(const BodyField& field, const Positions& points, const std::string& what);
 
 }  // namespace kgd

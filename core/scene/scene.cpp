@@ -1,6 +1,15 @@
 #include "core/scene/scene.h"
 
 namespace kgd {
+namespace {
+
+Result<std::shared_ptr<const BodyField>> BuildBodyField(const SceneSpec& s, const Positions& vertices, const Faces& faces) {
+  BodyFieldSettings bs;
+  bs.support_scale = s.body_support_scale;
+  return BodyField::Build(vertices, faces, bs);
+}
+
+}  // namespace
 
 Result<GarmentModel> BuildGarmentModel(const SceneSpec& s) {
   GarmentModel m;
@@ -27,14 +36,25 @@ Result<GarmentModel> BuildGarmentModel(const SceneSpec& s) {
   if (s.effects.friction > 0 && s.on_body.rows()) m.friction_anchor = s.on_body;
   if (s.effects.contact != ContactModel::kNone) {
     if (!s.body) return Status::Error("effects.contact is on but the scene has no body");
-    BodyFieldSettings bs;
-    bs.support_scale = s.body_support_scale;
-    Result<std::shared_ptr<const BodyField>> field = BodyField::Build(s.body->vertices, s.body->faces, bs);
-    if (!field.ok()) return field.status();
-    m.body = *field;
+    if (s.body_field && s.body_field->num_vertices() == s.body->vertices.rows()) {
+      m.body = s.body_field;
+    } else {
+      Result<std::shared_ptr<const BodyField>> field = BuildBodyField(s, s.body->vertices, s.body->faces);
+      if (!field.ok()) return field.status();
+      m.body = *field;
+    }
   }
   if (Status st = ValidateModel(m); !st.ok()) return st;
   return m;
+}
+
+Result<Positions> GarmentOnBody(const SceneSpec& s, const Positions& body_pose, std::shared_ptr<const BodyField>* field_out) {
+  const Positions cut = s.garment_from_body * body_pose;
+  if (s.effects.contact == ContactModel::kNone) return cut;
+  Result<std::shared_ptr<const BodyField>> field = BuildBodyField(s, body_pose, s.motion->faces);
+  if (!field.ok()) return field.status();
+  if (field_out) *field_out = *field;
+  return PlaceOnZeroSet(**field, cut, "garment vertex");
 }
 
 Status CutGarmentFromMotion(SceneSpec* s, const std::string& region_name, const std::string& attachments_name) {
@@ -43,24 +63,32 @@ Status CutGarmentFromMotion(SceneSpec* s, const std::string& region_name, const 
   Result<GarmentCut> cut = CutGarment(m.faces, m.rest, s->garment_region, s->attachment_body_faces, s->subdivisions,
                                       region_name, attachments_name);
   if (!cut.ok()) return cut.status();
-  s->garment = cut->garment;
   s->garment_from_body = cut->from_body;
-  s->initial = s->garment_from_body * m.deformed;
-  s->on_body = s->initial;
   s->attachment_faces = cut->attachment_faces;
   s->body = TriMesh{m.deformed, m.faces};
+  s->body_field = nullptr;
+  Result<Positions> rest = GarmentOnBody(*s, m.rest);
+  if (!rest.ok()) return rest.status().WithContext(region_name + " (rest pose): ");
+  Result<Positions> on_body = GarmentOnBody(*s, m.deformed, &s->body_field);
+  if (!on_body.ok()) return on_body.status().WithContext(region_name + " (deformed pose): ");
+  s->garment = TriMesh{std::move(rest).value(), cut->garment.faces};
+  s->on_body = std::move(on_body).value();
+  s->initial = s->on_body;
   s->design.assign(s->garment.faces.rows(), kCloth);
   if (Status st = ValidateMesh(s->garment.vertices, s->garment.faces, region_name + " (garment in the rest pose)"); !st.ok()) return st;
   return ValidateMesh(s->initial, s->garment.faces, region_name + " (garment in the deformed pose)");
 }
 
-SceneSpec SceneAtFrame(const SceneSpec& spec, int frame, const Positions& start) {
+Result<SceneSpec> SceneAtFrame(const SceneSpec& spec, int frame) {
   SceneSpec s = spec;
   const Positions& body = spec.motion->frames[frame];
   s.name = spec.name + " frame " + std::to_string(frame + 1);
   s.body = TriMesh{body, spec.motion->faces};
-  s.on_body = spec.garment_from_body * body;
-  s.initial = start;
+  s.body_field = nullptr;
+  Result<Positions> on_body = GarmentOnBody(spec, body, &s.body_field);
+  if (!on_body.ok()) return on_body.status().WithContext(s.name + ": ");
+  s.on_body = std::move(on_body).value();
+  s.initial = s.on_body;
   return s;
 }
 

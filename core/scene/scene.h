@@ -3,6 +3,7 @@
 // core/scene/builtin_scenes.h.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -42,16 +43,28 @@ struct SceneSpec {
   std::vector<int> attachment_body_faces;
   Eigen::SparseMatrix<double, Eigen::RowMajor> garment_from_body;  // garment vertices = this * body vertices
   Positions on_body;                      // the cut in the simulated pose (attachment anchors); may be empty
+  // The field of `body` where the scene already built it (a cut garment placed on it);
+  // BuildGarmentModel builds it when empty.
+  std::shared_ptr<const BodyField> body_field;
 };
 
 // Cuts the garment from `spec->motion` (region, subdivisions, attachment body faces) and sets garment,
 // initial, body, attachment_faces, garment_from_body and on_body. Resets the design to all cloth.
+// With contact, the garment lies on the body's smooth surface (the body field's zero set), not on its
+// facets: the rest shape is the cut placed on the rest body's field, and on_body (= initial) the cut
+// placed on the deformed body's field. A garment whose body does not move then stores no energy.
+// Precondition: spec->effects and spec->body_support_scale are final.
 Status CutGarmentFromMotion(SceneSpec* spec, const std::string& region_name = "garment.region",
                             const std::string& attachments_name = "attachments.body_faces");
 
-// The scene in one frame of its motion (0-based): body and anchors at that frame, start positions
-// `start` (e.g. the previous frame's equilibrium moved with the body). Precondition: motion has frames.
-SceneSpec SceneAtFrame(const SceneSpec& spec, int frame, const Positions& start);
+// The cut garment on the body in one pose of its motion (vertices x 3): with contact placed on that
+// pose's body field, which `field` (optional) receives; else the cut moved with the body's facets.
+Result<Positions> GarmentOnBody(const SceneSpec& spec, const Positions& body_pose, std::shared_ptr<const BodyField>* field = nullptr);
+
+// The scene in one frame of its motion (0-based): body, its field and the anchors at that frame; the
+// start positions are the garment on the body there (callers may replace them, e.g. with the previous
+// frame's equilibrium moved with the body). Precondition: motion has frames.
+Result<SceneSpec> SceneAtFrame(const SceneSpec& spec, int frame);
 
 // The simulator's model: builds the body field only when the scene's effects use contact.
 Result<GarmentModel> BuildGarmentModel(const SceneSpec& spec);

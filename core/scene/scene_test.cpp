@@ -19,6 +19,45 @@ std::string TempDir(const std::string& name) {
   return dir.string();
 }
 
+// The scene `base` whose body stays in its rest pose (`moved` = false) or moves rigidly: the deformed
+// pose and the one frame are the rest pose rotated by 30 degrees about a skew axis and shifted 0.2 m.
+Result<SceneSpec> MotionlessScene(SceneSpec s, bool moved) {
+  BodyMotion& m = *s.motion;
+  Positions pose = m.rest;
+  if (moved) {
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(0.52, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+    const Eigen::RowVector3d t(0.2, -0.1, 0.05);
+    pose = (m.rest * R.transpose()).rowwise() + t;
+  }
+  m.deformed = pose;
+  m.frames = {pose};
+  if (Status st = CutGarmentFromMotion(&s); !st.ok()) return st;
+  return s;
+}
+
+// A garment whose body does not move, or moves rigidly, stores no energy and stays where it starts:
+// its rest shape and its start lie on the body's smooth surface alike.
+TEST(Scene, AGarmentOnABodyAtRestStoresNothing) {
+  for (const std::string name : {"arm_flexion", "knee_flexion", "slouch"}) {
+    Result<SceneSpec> builtin = BuiltinScene(name);
+    ASSERT_TRUE(builtin.ok()) << builtin.message();
+    for (const bool moved : {false, true}) {
+      Result<SceneSpec> s = MotionlessScene(*builtin, moved);
+      ASSERT_TRUE(s.ok()) << s.message();
+      for (const uint8_t material : {kCloth, kReinforced}) {
+        SCOPED_TRACE(name + (moved ? " moved rigidly" : " at rest") + (material == kCloth ? ", all cloth" : ", all reinforced"));
+        s->design.assign(s->garment.faces.rows(), material);
+        Result<SimulationResult> r = SimulateScene(*s);
+        ASSERT_TRUE(r.ok()) << r.message();
+        EXPECT_TRUE(r->solve.converged()) << r->solve.message;
+        EXPECT_LE(std::abs(r->solve.energy_J), 1e-9);
+        EXPECT_LE((r->positions - s->initial).rowwise().norm().maxCoeff(), 1e-9);
+        EXPECT_GE(r->min_phi_m, -1e-9);
+      }
+    }
+  }
+}
+
 TEST(Scene, ExportThenLoadReproducesTheBuiltinResult) {
   for (const std::string name : {"pull_test_x", "sleeve_on_limb"}) {
     auto builtin = BuiltinScene(name);

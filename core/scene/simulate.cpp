@@ -60,23 +60,28 @@ Result<std::vector<SimulationResult>> SimulateFrames(const SceneSpec& scene,
                                                      const std::function<void(int, const SimulationResult&)>& on_frame) {
   if (!scene.motion || scene.motion->frames.empty())
     return Status::Error("scene '" + scene.name + "' has no motion frames (give body.frames with garment.region)");
-  const std::vector<Positions>& frames = scene.motion->frames;
+  const int n = static_cast<int>(scene.motion->frames.size());
   std::vector<SimulationResult> out;
-  Positions start = scene.garment_from_body * frames[0];
-  for (size_t k = 0; k < frames.size(); ++k) {
-    const Positions on_body = scene.garment_from_body * frames[k];
+  Positions previous_on_body;
+  for (int k = 0; k < n; ++k) {
+    Result<SceneSpec> frame = SceneAtFrame(scene, k);
+    if (!frame.ok()) return frame.status();
+    const Positions& on_body = frame->on_body;
     if (k > 0) {
-      start = out.back().positions + scene.garment_from_body * (frames[k] - frames[k - 1]);
+      // The previous equilibrium moved with the body.
+      Positions start = out.back().positions + (on_body - previous_on_body);
       // Where the garment slid or lifted off, the body's displacement can fold a compressed triangle
       // over; then this frame starts on the body instead.
       if (scene.effects.fold_barrier && CountFoldedFaces(on_body, start, scene.garment.faces) > 0) start = on_body;
       // With friction every frame is the garment put on in that pose and released (the definition the
       // design loop uses for the deformed pose): a warm start would drag the friction's history along.
       if (scene.effects.friction > 0) start = on_body;
+      frame->initial = std::move(start);
     }
-    Result<SimulationResult> r = SimulateScene(SceneAtFrame(scene, static_cast<int>(k), start));
+    previous_on_body = on_body;
+    Result<SimulationResult> r = SimulateScene(*frame);
     if (!r.ok()) return r.status().WithContext("frame " + std::to_string(k + 1) + ": ");
-    if (on_frame) on_frame(static_cast<int>(k), *r);
+    if (on_frame) on_frame(k, *r);
     out.push_back(std::move(r).value());
   }
   return out;
