@@ -70,6 +70,35 @@ TEST(BodyField, NeighbourCacheIsRebuiltOnlyAfterMovingBeyondItsMargin) {
   EXPECT_EQ(cache.rebuilds, 2);
 }
 
+// Points near a cylinder's surface (the body's own vertices, face midpoints, points 2 mm off) land on
+// the zero set, close to where they started; a point beyond the support is refused by its index.
+TEST(BodyField, PlaceOnZeroSetPutsPointsOnTheSurface) {
+  LimbShape s;
+  s.waist_depth = 0;
+  s.around = 48;
+  const TriMesh m = LimbRest(s);
+  auto field = BodyField::Build(m.vertices, m.faces);
+  ASSERT_TRUE(field.ok()) << field.message();
+  Positions points(4, 3);
+  points.row(0) = m.vertices.row(m.faces(100, 0));
+  points.row(1) = (m.vertices.row(m.faces(100, 0)) + m.vertices.row(m.faces(100, 1)) + m.vertices.row(m.faces(100, 2))) / 3.0;
+  points.row(2) << 0.042, 0.08, 0;
+  points.row(3) << 0, 0.08, 0.038;
+  Result<Positions> placed = PlaceOnZeroSet(**field, points, "point");
+  ASSERT_TRUE(placed.ok()) << placed.message();
+  NeighborCache cache;
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector3d x = placed->row(i).transpose();
+    EXPECT_LE(std::abs((*field)->Evaluate(x, &cache, false, false).phi_m), 1e-12) << i;
+    EXPECT_LE((placed->row(i) - points.row(i)).norm(), 2.5e-3) << i;
+  }
+  Positions far = points;
+  far.row(2) << 0.5, 0, 0;
+  Result<Positions> refused = PlaceOnZeroSet(**field, far, "garment vertex");
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.message().find("garment vertex 2 at (0.5, 0, 0) m"), std::string::npos) << refused.message();
+}
+
 TEST(BodyField, RejectsAnInvalidBodyMesh) {
   Positions v(3, 3);
   v << 0, 0, 0, 1, 0, 0, 2, 0, 0;
