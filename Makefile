@@ -3,7 +3,7 @@ BUILD ?= build
 JOBS ?= 2
 CMAKE_FLAGS ?=
 
-.PHONY: setup build demo test acceptance test-sanitize bench study clean
+.PHONY: setup build demo test acceptance test-sanitize bench study study-makehuman clean
 
 setup:
 	bash scripts/setup.sh
@@ -38,6 +38,10 @@ bench: build
 # The design study of docs/RESULTS.md: all seven built-in scenes to the budget (about ten minutes).
 study: build
 	bash scripts/design_study.sh $(BUILD)
+
+# The same study on the MakeHuman bodies of ../shared/bodies (about fifteen minutes).
+study-makehuman: build
+	bash scripts/makehuman_study.sh $(BUILD)
 
 clean:
 	rm -rf build build-sanitize
