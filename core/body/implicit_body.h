@@ -135,11 +135,13 @@ class PosedField {
   }
   // Tangential smoothing on the level set: each active vertex moves halfway to its neighbours' mean,
   // within the tangent plane, and is projected back. Evens out triangle sizes and unfolds pinches.
-  // With `rest`, each vertex moves instead towards where its edges would have their rest lengths
-  // (a spring relaxation): the skin keeps its metric where it slides, rather than evening out
-  // triangle sizes, which stretches compressed skin sideways.
+  // With `rest`, each vertex moves instead by `step` (in (0, 1]) of the way towards where its edges
+  // would have their rest lengths (a spring relaxation): the skin keeps its metric where it slides,
+  // rather than evening out triangle sizes, which stretches compressed skin sideways. A tangential
+  // step is short against the surface's curvature, so one Newton step along the normal keeps the
+  // vertex on the surface until the last iteration projects it fully.
   void Relax(Positions* x, const std::vector<std::vector<int>>& nbrs, const std::vector<int>& active, int iterations,
-             const Positions* rest = nullptr) const {
+             const Positions* rest = nullptr, double step = 0.5) const {
     Positions next = *x;
     for (int it = 0; it < iterations; ++it) {
 #pragma omp parallel for schedule(static)
@@ -164,10 +166,17 @@ class PosedField {
         n.normalize();
         V3 d = mean - p;
         d -= d.dot(n) * n;
-        next.row(v) = Project(p + 0.5 * d).transpose();
+        if (rest == nullptr) {
+          next.row(v) = Project(p + 0.5 * d).transpose();
+        } else {
+          const V3 y = p + step * d;
+          next.row(v) = (y - (*this)(y) * n).transpose();
+        }
       }
       for (int v : active) x->row(v) = next.row(v);
     }
+    if (rest != nullptr)
+      for (int v : active) x->row(v) = Project(x->row(v).transpose()).transpose();
   }
   // Of the faces `candidates`, those whose normal points into the body (folded over) or that have
   // collapsed.

@@ -176,8 +176,9 @@ Result<ParametricBody> BuildParametricBody(const BodyMeasurements& m) {
   auto adjacent = [&](int a, int b) {
     return (body.parent[a] >= 0 && with_primitive(body.parent[a]) == b) || (body.parent[b] >= 0 && with_primitive(body.parent[b]) == a);
   };
-  // The hip's band is wider: a crouch turns the thigh by 85 degrees under a large pelvis.
-  const double band = 0.06 * s, hip_band = 0.10 * s, sigma = 0.012 * s;
+  // The hip's band is wider: a crouch turns the thigh by 85 degrees under a large pelvis, and over a
+  // narrower band the skin of the buttocks stretches beyond 2x in area (docs/BODIES.md).
+  const double band = 0.06 * s, hip_band = 0.25 * s, sigma = 0.012 * s;
   auto is_hip = [](int a, int b) {
     const bool ta = a == kThighL || a == kThighR, tb = b == kThighL || b == kThighR;
     return (ta && (b == kPelvis || b == kLumbar)) || (tb && (a == kPelvis || a == kLumbar));

@@ -44,7 +44,8 @@ Positions Skin(const ParametricBody& body, const std::array<Eigen::Isometry3d, k
 }
 
 const double kSkinRelaxStrain = 0.05;
-const int kSkinRelaxIterations = 40;
+const int kSkinRelaxIterations = 100;
+const double kSkinRelaxStep = 0.9;
 
 // Marks every vertex within `rings` edges of a marked one.
 void GrowMarks(const std::vector<std::vector<int>>& nbrs, int rings, std::vector<char>* mark) {
@@ -108,7 +109,7 @@ void RelaxSkinMetric(const ParametricBody& body, const PosedField& field, const 
     }
   GrowMarks(nbrs, 2, &mark);
   const std::vector<int> active = MarkedVertices(mark);
-  if (!active.empty()) field.Relax(x, nbrs, active, kSkinRelaxIterations, &rest);
+  if (!active.empty()) field.Relax(x, nbrs, active, kSkinRelaxIterations, &rest, kSkinRelaxStep);
 }
 
 }  // namespace
