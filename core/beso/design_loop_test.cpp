@@ -118,6 +118,51 @@ TEST(DesignLoop, KeptAttachmentsStayReinforced) {
   EXPECT_NE(too_small.message().find("more than the budget"), std::string::npos) << too_small.message();
 }
 
+// Why a run ends, from its metrics alone: still running, converged (target reached, flat objective over
+// the window), the iteration limit, or nothing to resist (no reinforced energy at iteration 0).
+TEST(DesignLoop, EndsForTheReasonItsHistoryGives) {
+  BesoSettings s = PullTestSettings(10);
+  s.converge_window = 3;
+  const double area = 1.0;
+  auto iteration = [](int k, double target, double energy, double reinforced) {
+    BesoIteration it;
+    it.iteration = k;
+    it.target_area_m2 = target;
+    it.energy_J = energy;
+    it.reinforced_energy_J = reinforced;
+    return it;
+  };
+  std::vector<BesoIteration> h;
+  EXPECT_EQ(BesoEndOf(h, s, area), BesoEnd::kRunning);
+  h.push_back(iteration(0, 1.0, 1e-3, 1e-3));
+  EXPECT_EQ(BesoEndOf(h, s, area), BesoEnd::kRunning);
+  for (int k = 1; k <= 4; ++k) h.push_back(iteration(k, 0.6, 2e-3, 1e-3));
+  EXPECT_EQ(BesoEndOf(h, s, area), BesoEnd::kConverged);
+  EXPECT_TRUE(BesoFinished(h, s, area));
+  h.back().energy_J = 3e-3;  // not flat over the window
+  EXPECT_EQ(BesoEndOf(h, s, area), BesoEnd::kRunning);
+  for (int k = 5; k <= 10; ++k) h.push_back(iteration(k, 0.6, 1e-3 * k, 1e-3));
+  EXPECT_EQ(BesoEndOf(h, s, area), BesoEnd::kIterationLimit);
+  EXPECT_NE(DescribeBesoEnd(BesoEnd::kIterationLimit, h, s).find("10"), std::string::npos);
+  h = {iteration(0, 1.0, 5e-10, 5e-10)};
+  EXPECT_EQ(BesoEndOf(h, s, area), BesoEnd::kNothingToResist);
+  EXPECT_NE(DescribeBesoEnd(BesoEnd::kNothingToResist, h, s).find("nothing to resist"), std::string::npos);
+}
+
+// A pull test whose clamps do not move gives the garment nothing to resist: the run stops after
+// iteration 0.
+TEST(DesignLoop, AMotionlessSceneStopsAfterIterationZero) {
+  Result<SceneSpec> scene = PullTestScene("all_cloth");
+  ASSERT_TRUE(scene.ok()) << scene.message();
+  for (Clamp& c : scene->clamps) c.displacement_m.setZero();
+  const BesoSettings s = PullTestSettings(20);
+  const Result<std::vector<BesoIteration>> run = RunBeso(*scene, s);
+  ASSERT_TRUE(run.ok()) << run.message();
+  ASSERT_EQ(run->size(), 1u);
+  EXPECT_LE(run->front().reinforced_energy_J, kNothingToResist_J);
+  EXPECT_EQ(BesoEndOf(*run, s, 1.0), BesoEnd::kNothingToResist);
+}
+
 TEST(DesignLoop, BadSettingsAreRefused) {
   Result<SceneSpec> scene = PullTestScene("all_cloth");
   BesoSettings s;
