@@ -81,6 +81,7 @@ Result<std::vector<BesoIteration>> RunDesignJob(const DesignJob& job, const std:
 
 int IterationsLeft(const DesignJob& job, const BesoIteration& it) {
   const BesoSettings& s = job.settings();
+  if (NothingToResist(it)) return 0;
   const double final_area = s.budget * job.header.rest_area_m2.sum();
   int left = s.converge_window;
   if (it.target_area_m2 > final_area * (1 + 1e-12))

@@ -45,7 +45,8 @@ Status CheckStoredGarment(const SceneSpec& scene, const DesignFileHeader& header
 Result<std::vector<BesoIteration>> RunDesignJob(const DesignJob& job, const std::function<bool(const BesoIteration&)>& on_iteration);
 
 // Iterations a job probably still runs after `it`: to shrink the target to the budget at ER per
-// iteration, then the stop window; capped by max_iterations. For progress bars and ETAs.
+// iteration, then the stop window; capped by max_iterations; 0 after an iteration 0 with nothing to
+// resist. For progress bars and ETAs.
 int IterationsLeft(const DesignJob& job, const BesoIteration& it);
 
 // "word word ..." <-> words, as body overrides are stored.

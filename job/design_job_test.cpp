@@ -110,7 +110,12 @@ TEST(DesignJob, IterationsLeftCountsDownToTheBudgetAndTheWindow) {
   // From full area at ER 5 %: ceil(log 0.6 / log 0.95) = 10 steps, then the window.
   BesoIteration full;
   full.target_area_m2 = area;
+  full.reinforced_energy_J = 1e-3;
   EXPECT_EQ(IterationsLeft(*job, full), 10 + job->settings().converge_window);
+  // A motion with nothing to resist ends the job at iteration 0.
+  BesoIteration motionless = full;
+  motionless.reinforced_energy_J = 0;
+  EXPECT_EQ(IterationsLeft(*job, motionless), 0);
   BesoIteration late;
   late.iteration = 995;
   late.target_area_m2 = area;

@@ -22,9 +22,11 @@ std::vector<double> Objective(const std::vector<BesoIteration>& history) {
 
 }  // namespace
 
+bool NothingToResist(const BesoIteration& it) { return it.iteration == 0 && !(it.reinforced_energy_J > kNothingToResist_J); }
+
 BesoEnd BesoEndOf(const std::vector<BesoIteration>& history, const BesoSettings& settings, double garment_area_m2) {
   if (history.empty()) return BesoEnd::kRunning;
-  if (history.front().iteration == 0 && !(history.front().reinforced_energy_J > kNothingToResist_J)) return BesoEnd::kNothingToResist;
+  if (NothingToResist(history.front())) return BesoEnd::kNothingToResist;
   if (history.back().iteration >= settings.max_iterations) return BesoEnd::kIterationLimit;
   if (BesoConverged(Objective(history), TargetReached(history.back().target_area_m2, settings.budget * garment_area_m2), settings.tau,
                     settings.converge_window))

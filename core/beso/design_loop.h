@@ -74,6 +74,9 @@ enum class BesoEnd {
 // that does not move, or moves rigidly, leaves a garment at rest with (numerically) zero energy.
 inline constexpr double kNothingToResist_J = 1e-9;
 
+// True when `it` is iteration 0 and its fully reinforced garment takes at most kNothingToResist_J.
+bool NothingToResist(const BesoIteration& it);
+
 BesoEnd BesoEndOf(const std::vector<BesoIteration>& history, const BesoSettings& settings, double garment_area_m2);
 
 // True when `history` has ended (any BesoEnd but kRunning).
