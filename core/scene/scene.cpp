@@ -49,6 +49,8 @@ Result<GarmentModel> BuildGarmentModel(const SceneSpec& s) {
 }
 
 Result<Positions> GarmentOnBody(const SceneSpec& s, const Positions& body_pose, std::shared_ptr<const BodyField>* field_out) {
+  if (!s.motion || s.garment_from_body.cols() != body_pose.rows())
+    return Status::Error("scene '" + s.name + "': the garment is not cut from a body with " + std::to_string(body_pose.rows()) + " vertices");
   const Positions cut = s.garment_from_body * body_pose;
   if (s.effects.contact == ContactModel::kNone) return cut;
   Result<std::shared_ptr<const BodyField>> field = BuildBodyField(s, body_pose, s.motion->faces);
