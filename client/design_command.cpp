@@ -123,15 +123,8 @@ int RunDesign(const DesignOptions& o) {
   std::vector<double> recent;  // seconds of the last iterations, for the ETA
   double elapsed = 0;
   // Metrics of every iteration stored (arrays are not needed for the summary and the stop reason).
-  std::vector<BesoIteration> metrics = job->history;
-  auto metrics_only = [](BesoIteration it) {
-    it.positions.resize(0, 3);
-    it.energy_density_Pa.resize(0);
-    it.sensitivity.resize(0);
-    it.design.clear();
-    return it;
-  };
-  for (BesoIteration& it : metrics) it = metrics_only(std::move(it));
+  std::vector<BesoIteration> metrics;
+  for (const BesoIteration& it : job->history) metrics.push_back(MetricsOnly(it));
   auto on_iteration = [&](const BesoIteration& it) {
     write_status = writer->Append(it);
     elapsed += it.total_s;
@@ -153,7 +146,7 @@ int RunDesign(const DesignOptions& o) {
       std::printf("%s\n", j.dump().c_str());
     }
     std::fflush(stdout);
-    metrics.push_back(metrics_only(it));
+    metrics.push_back(MetricsOnly(it));
     return write_status.ok() && !g_interrupted;
   };
   const Result<std::vector<BesoIteration>> run = RunDesignJob(*job, on_iteration);

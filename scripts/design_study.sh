@@ -5,6 +5,7 @@
 # part of `make test`.
 #   bash scripts/design_study.sh [BUILD_DIR] [OUT_DIR] [SCENE ...]
 set -euo pipefail
+source "$(dirname "$0")/study_scene.sh"
 build=${1:-build}
 out=${2:-$build/study}
 shift $(( $# > 2 ? 2 : $# ))
@@ -19,16 +20,7 @@ failed=()
 for s in "${scenes[@]}"; do
   echo "== $s"
   # A failed design (exit 3) is reported and the study goes on with what was stored.
-  if ! "$kgd" design "$s" --out "$out/$s.h5" > "$out/$s.jsonl"; then
-    failed+=("$s")
-  fi
-  tail -n 1 "$out/$s.jsonl"
-  "$kgd" designs "$out/$s.h5" > "$out/$s.table.txt"
-  tail -n 1 "$out/$s.table.txt"
-  case "$s" in
-    arm_*|knee_*) "$kgd" baselines "$out/$s.h5" | tee "$out/$s.baselines.txt" || true ;;
-  esac
-  "$kgd" evaluate "$out/$s.h5" | tee "$out/$s.frames.txt" || true
+  study_scene "$kgd" "$out" "$s" "$s" || failed+=("$s")
 done
 if [ ${#failed[@]} -gt 0 ]; then
   echo "failed: ${failed[*]}"

@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # The design study of docs/RESULTS.md on the real bodies of ../shared/bodies/makehuman (MakeHuman meshes,
 # CC0; not part of a clone): each of the seven motions as a scene file naming the shared meshes (garment
-# regions subdivided twice, the paper's sizes; the paper's budgets), then what scripts/design_study.sh
-# does for the built-in scenes: kgd design, kgd designs, kgd baselines (sleeves), kgd evaluate. About
+# regions subdivided twice, the paper's sizes; the paper's budgets), then the steps of
+# scripts/study_scene.sh that scripts/design_study.sh runs for the built-in scenes. About
 # fifteen minutes on two cores; not part of `make test`.
 #   bash scripts/makehuman_study.sh [BUILD_DIR] [OUT_DIR] [MOTION ...]
 set -euo pipefail
+source "$(dirname "$0")/study_scene.sh"
 build=${1:-build}
 out=${2:-$build/study-makehuman}
 shift $(( $# > 2 ? 2 : $# ))
@@ -43,16 +44,7 @@ for m in "${motions[@]}"; do
  "effects": {"contact": "unilateral", "attachments": true}}
 JSON
   echo "== makehuman $m"
-  if ! "$kgd" design "$out/$m/scene.json" --out "$out/$m.h5" > "$out/$m.jsonl"; then
-    failed+=("$m")
-  fi
-  tail -n 1 "$out/$m.jsonl"
-  "$kgd" designs "$out/$m.h5" > "$out/$m.table.txt"
-  tail -n 1 "$out/$m.table.txt"
-  case "$m" in
-    arm_*|knee_*) "$kgd" baselines "$out/$m.h5" | tee "$out/$m.baselines.txt" || true ;;
-  esac
-  "$kgd" evaluate "$out/$m.h5" | tee "$out/$m.frames.txt" || true
+  study_scene "$kgd" "$out" "$m" "$out/$m/scene.json" || failed+=("$m")
 done
 if [ ${#failed[@]} -gt 0 ]; then
   echo "failed: ${failed[*]}"

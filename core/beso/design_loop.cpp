@@ -22,6 +22,14 @@ std::vector<double> Objective(const std::vector<BesoIteration>& history) {
 
 }  // namespace
 
+BesoIteration MetricsOnly(BesoIteration it) {
+  it.positions.resize(0, 3);
+  it.energy_density_Pa.resize(0);
+  it.sensitivity.resize(0);
+  it.design.clear();
+  return it;
+}
+
 bool NothingToResist(const BesoIteration& it) { return it.iteration == 0 && !(it.reinforced_energy_J > kNothingToResist_J); }
 
 BesoEnd BesoEndOf(const std::vector<BesoIteration>& history, const BesoSettings& settings, double garment_area_m2) {
@@ -169,10 +177,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
     if (on_iteration && !on_iteration(out.back())) break;
     if (BesoFinished(past, settings, total_area)) break;
     // Only the energies of earlier iterations are needed from here on.
-    past.back().positions.resize(0, 3);
-    past.back().energy_density_Pa.resize(0);
-    past.back().sensitivity.resize(0);
-    past.back().design.clear();
+    past.back() = MetricsOnly(std::move(past.back()));
   }
   return out;
 }

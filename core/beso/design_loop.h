@@ -52,6 +52,10 @@ struct BesoIteration {
                                        // filtered ones before averaging); empty at iteration 0
 };
 
+// `it` with its arrays (design, positions, densities, sensitivities) dropped: the metrics alone, which
+// are all the stop rule and summaries read.
+BesoIteration MetricsOnly(BesoIteration it);
+
 // Runs BESO on `scene` (its design is ignored: the loop starts fully reinforced). `on_iteration`
 // (optional) sees every iteration as it lands; returning false stops the run. `resume` (optional):
 // records of an earlier run of the same scene and settings (iterations 0..k, complete for the last);

@@ -7,11 +7,16 @@
 namespace kgd {
 namespace {
 
-TEST(BodyField, IsASignedDistanceNearTheSurfaceOfACylinder) {
+// A capsule limb with a straight, round middle (radius 4 cm, 48 vertices around).
+TriMesh Cylinder() {
   LimbShape s;
   s.waist_depth = 0;
   s.around = 48;
-  const TriMesh m = LimbRest(s);
+  return LimbRest(s);
+}
+
+TEST(BodyField, IsASignedDistanceNearTheSurfaceOfACylinder) {
+  const TriMesh m = Cylinder();
   auto field = BodyField::Build(m.vertices, m.faces);
   ASSERT_TRUE(field.ok()) << field.message();
   NeighborCache cache;
@@ -73,10 +78,7 @@ TEST(BodyField, NeighbourCacheIsRebuiltOnlyAfterMovingBeyondItsMargin) {
 // Points near a cylinder's surface (the body's own vertices, face midpoints, points 2 mm off) land on
 // the zero set, close to where they started; a point beyond the support is refused by its index.
 TEST(BodyField, PlaceOnZeroSetPutsPointsOnTheSurface) {
-  LimbShape s;
-  s.waist_depth = 0;
-  s.around = 48;
-  const TriMesh m = LimbRest(s);
+  const TriMesh m = Cylinder();
   auto field = BodyField::Build(m.vertices, m.faces);
   ASSERT_TRUE(field.ok()) << field.message();
   Positions points(4, 3);
