@@ -21,6 +21,7 @@ demo: build
 # --timeout: a test that hangs fails with its name after 20 minutes (the longest takes about one)
 # instead of holding the whole run.
 test: build
+	bash scripts/setup.sh --browser
 	cd $(BUILD) && ctest --output-on-failure -j$(JOBS) -LE acceptance --timeout 1200
 
 # The whole-body scenes' frames (slouch, crouch, lunge), a few minutes; the whole BESO designs of

@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <filesystem>
 #include <iostream>
 #include <limits>
@@ -38,7 +39,7 @@ struct DesignOptions {
   std::string out;
   std::string resume;
   OptimizerFlags optimizer;
-  bool json = false, verbose = false;
+  bool json = false, verbose = false, evaluate = false;
 };
 
 // The scene a design file was made from, rebuilt (ResumeDesignJob checks it against the stored garment).
@@ -125,7 +126,13 @@ int RunDesign(const DesignOptions& o) {
   // Metrics of every iteration stored (arrays are not needed for the summary and the stop reason).
   std::vector<BesoIteration> metrics;
   for (const BesoIteration& it : job->history) metrics.push_back(MetricsOnly(it));
+  // Iteration 0 and the last with their arrays, for --evaluate.
+  std::optional<BesoIteration> first, last;
   auto on_iteration = [&](const BesoIteration& it) {
+    if (o.evaluate) {
+      if (it.iteration == 0) first = it;
+      last = it;
+    }
     write_status = writer->Append(it);
     elapsed += it.total_s;
     recent.push_back(it.total_s);
@@ -160,11 +167,28 @@ int RunDesign(const DesignOptions& o) {
     std::fprintf(stderr, "kgd design: stopped after iteration %d; continue with: kgd design --resume %s\n", end.iteration, path.c_str());
     return 130;
   }
+  std::string evaluation_path;
+  if (o.evaluate) {
+    // A resumed run that stored no new iteration reads its first and last back from the file.
+    if (!first || !last) {
+      Result<DesignFile> f0 = ReadDesignFile(path, {.arrays = true, .only_iteration = 0});
+      Result<DesignFile> fl = ReadDesignFile(path, {.arrays = true, .only_iteration = end.iteration});
+      if (!f0.ok()) return Fail("design", f0.message());
+      if (!fl.ok()) return Fail("design", fl.message());
+      if (!first) first = f0->iterations.front();
+      if (!last) last = fl->iterations.back();
+    }
+    Result<DesignEvaluation> e = EvaluateDesign(*job, *first, *last);
+    if (!e.ok()) return Fail("design", e.message() + " (the design is in " + path + ")", 3);
+    evaluation_path = EvaluationPath(path);
+    if (Status st = WriteDesignEvaluation(evaluation_path, *e); !st.ok()) return Fail("design", st.message());
+  }
   const BesoEnd how = BesoEndOf(metrics, settings, job->header.rest_area_m2.sum());
   const std::string why = DescribeBesoEnd(how, metrics, settings);
   if (o.json || !bar) {
     nlohmann::ordered_json j{{"event", "done"}, {"file", path}, {"iterations", end.iteration + 1}, {"area_fraction", end.area_fraction},
                              {"density_ratio", end.density_ratio}, {"seconds", elapsed}, {"end", why}};
+    if (!evaluation_path.empty()) j["evaluation"] = evaluation_path;
     std::printf("%s\n", j.dump().c_str());
   } else if (how == BesoEnd::kNothingToResist) {
     std::printf("done: stopped at iteration 0, %s; wrote %s\n", why.c_str(), path.c_str());
@@ -173,6 +197,7 @@ int RunDesign(const DesignOptions& o) {
                 end.iteration + 1, why.c_str(), 100 * end.area_fraction, end.reinforced_density_J_per_m2, end.density_ratio,
                 Duration(elapsed).c_str(), path.c_str());
   }
+  if (!evaluation_path.empty() && bar) std::printf("evaluation (the design over the motion, Line and X beside it): %s\n", evaluation_path.c_str());
   return 0;
 }
 
@@ -350,6 +375,9 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
   d->add_option("--resume", o->resume, "Continue the job stored in this design file after its last iteration");
   AddOptimizerFlags(d, &o->optimizer);
   d->add_flag("-v,--verbose", o->verbose, "Print every solver iteration to stderr");
+  d->add_flag("--evaluate", o->evaluate,
+              "Then simulate the final design over every frame of the motion and beside the Line and X baselines of its area "
+              "(FILE.evaluation.h5; the design service always does)");
   d->add_flag("--json", o->json, "Print one JSON line per iteration (the default when stdout is not a terminal)");
   d->callback([o, exit_code] { *exit_code = RunDesign(*o); });
 

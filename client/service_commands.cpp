@@ -21,6 +21,7 @@
 #include "proto/job_spec.h"
 #include "proto/records.h"
 #include "server/design_server.h"
+#include "server/http_gateway.h"
 #include "worker/design_worker.h"
 
 namespace kgd::cli {
@@ -361,6 +362,9 @@ struct ServeOptions {
   server::ServerOptions server;
   int workers = 1;
   int jobs_per_worker = 1;
+  server::HttpOptions http{.address = "127.0.0.1:7448", .web_dir = KGD_WEB_DIR};
+  bool no_http = false;
+  double max_upload_mb = 64;
 };
 
 int RunServe(ServeOptions o) {
@@ -384,10 +388,22 @@ int RunServe(ServeOptions o) {
     }
     workers.push_back(std::move(w).value());
   }
+  std::unique_ptr<server::HttpGateway> http;
+  if (!o.no_http) {
+    o.http.max_upload_bytes = static_cast<size_t>(o.max_upload_mb * (1 << 20));
+    auto g = server::HttpGateway::Start(&(*server)->service(), o.http);
+    if (!g.ok()) {
+      std::fprintf(stderr, "kgd serve: %s\n", g.message().c_str());
+      return 1;
+    }
+    http = std::move(g).value();
+  }
   std::printf("listening on %s; data in %s; %d in-process worker%s\n", (*server)->address().c_str(), o.server.data_dir.c_str(), o.workers,
               o.workers == 1 ? "" : "s");
+  if (http) std::printf("web page and HTTP API: %s\n", http->url().c_str());
   std::fflush(stdout);
   WaitForTerminationSignal();
+  if (http) http->Stop();
   (*server)->Drain();
   for (auto& w : workers) w->Stop();
   for (auto& w : workers) w->Wait();
@@ -407,6 +423,10 @@ void AddServiceCommands(CLI::App& app, int* exit_code) {
       ->check(CLI::PositiveNumber)->capture_default_str();
   sv->add_option("--max-attempts", serve->server.max_attempts, "Leases a job gets before it fails")->check(CLI::PositiveNumber)->capture_default_str();
   sv->add_flag("--quiet", serve->server.quiet, "No log lines");
+  sv->add_option("--http", serve->http.address, "host:port of the web page and the HTTP/JSON API (port 0: any free port)")->capture_default_str();
+  sv->add_flag("--no-http", serve->no_http, "gRPC only: no web page, no HTTP API");
+  sv->add_option("--web", serve->http.web_dir, "Folder of the web page's files")->capture_default_str();
+  sv->add_option("--max-upload-mb", serve->max_upload_mb, "Largest HTTP request body accepted (MiB)")->check(CLI::PositiveNumber)->capture_default_str();
   sv->callback([serve, exit_code] { *exit_code = RunServe(*serve); });
 
   auto submit = std::make_shared<SubmitOptions>();

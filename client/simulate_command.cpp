@@ -207,14 +207,10 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
 
   CLI::App* scenes = app.add_subcommand("scenes", "List the built-in scenes");
   scenes->callback([exit_code] {
-    std::printf("%-26s %-12s %-7s %-7s %s\n", "name", "garment", "budget", "frames", "description");
-    for (const PaperMotion& m : PaperMotions())
-      std::printf("%-26s %-12s %-7.2f %-7d %s\n", m.name.c_str(), m.garment.c_str(), m.budget, m.frames, m.description.c_str());
-    for (const std::string& n : BuiltinSceneNames()) {
-      bool paper = false;
-      for (const PaperMotion& m : PaperMotions()) paper |= m.name == n;
-      if (!paper) std::printf("%-26s %-12s %-7s %-7s %s\n", n.c_str(), "-", "-", "-", n.rfind("pull_test", 0) == 0 ? "pull test of the paper's 2D validation" : "sleeve on a capsule limb (simulator checks)");
-    }
+    std::printf("%-26s %-12s %-7s %-7s %-7s %s\n", "name", "garment", "faces", "budget", "frames", "description");
+    for (const BuiltinSceneInfo& s : BuiltinSceneInfos())
+      std::printf("%-26s %-12s %-7d %-7.2f %-7s %s\n", s.name.c_str(), s.garment.empty() ? "-" : s.garment.c_str(), s.garment_faces, s.budget,
+                  s.frames ? std::to_string(s.frames).c_str() : "-", s.description.c_str());
     *exit_code = 0;
   });
 

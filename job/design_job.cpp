@@ -2,7 +2,10 @@
 
 #include <cmath>
 #include <sstream>
+#include <tuple>
 
+#include "core/beso/baselines.h"
+#include "core/scene/simulate.h"
 #include "proto/job_spec.h"
 
 namespace kgd {
@@ -52,6 +55,9 @@ Result<DesignJob> NewDesignJob(SceneSpec scene, const v1::OptimizerSettings& opt
   job.header.initial = scene.initial;
   job.header.rest_area_m2 = FaceAreas(scene.garment.vertices, scene.garment.faces);
   job.header.attachment_faces = scene.attachment_faces;
+  job.header.cloth_thickness_m = scene.cloth.thickness_m;
+  job.header.reinforced_thickness_m = scene.reinforced.thickness_m;
+  if (scene.body) job.header.body_mesh = *scene.body;
   job.scene = std::move(scene);
   return job;
 }
@@ -77,6 +83,65 @@ Result<DesignJob> ResumeDesignJob(SceneSpec scene, DesignFileHeader header, std:
 
 Result<std::vector<BesoIteration>> RunDesignJob(const DesignJob& job, const std::function<bool(const BesoIteration&)>& on_iteration) {
   return RunBeso(job.scene, job.settings(), on_iteration, job.history.empty() ? nullptr : &job.history);
+}
+
+Result<DesignEvaluation> EvaluateDesign(const DesignJob& job, const BesoIteration& first, const BesoIteration& last) {
+  DesignEvaluation e;
+  e.iteration = last.iteration;
+  if (first.iteration != 0) return Status::Error("evaluate: `first` is iteration " + std::to_string(first.iteration) + ", not 0");
+  const double full_density = first.reinforced_density_J_per_m2;
+  SceneSpec scene = job.scene;
+  scene.design = last.design;
+  std::vector<std::string> notes;
+  if (scene.motion && !scene.motion->frames.empty()) {
+    const bool body = scene.body && scene.body->faces.rows() == scene.motion->faces.rows();
+    Result<std::vector<SimulationResult>> frames = SimulateFrames(scene);
+    if (!frames.ok()) return frames.status().WithContext("evaluate over the motion: ");
+    for (size_t k = 0; k < frames->size(); ++k) {
+      const SimulationResult& r = (*frames)[k];
+      e.frames.push_back({r.positions, body ? scene.motion->frames[k] : Positions(), r.face_density_Pa, r.solve.energy_J, ToString(r.solve.status)});
+    }
+  } else {
+    notes.push_back("no motion frames: the scene has one pose");
+  }
+  if (NothingToResist(first)) {
+    notes.push_back("no baselines: the fully reinforced design stores no energy");
+  } else {
+    // The bands centre where the fully reinforced garment works hardest (as `kgd baselines` does). A
+    // resumed job holds iteration 0's metrics only: its energies are simulated again.
+    Eigen::VectorXd weight;
+    if (first.energy_density_Pa.size() == job.header.rest_area_m2.size()) {
+      weight = first.energy_density_Pa.cwiseProduct(job.header.rest_area_m2);
+    } else {
+      SceneSpec full = job.scene;
+      full.design.assign(full.garment.faces.rows(), 1);
+      Result<SimulationResult> r = SimulateScene(full);
+      if (!r.ok()) return r.status().WithContext("evaluate: the fully reinforced design: ");
+      weight = r->face_energy_J;
+    }
+    Result<BaselineComparison> cmp = CompareWithBaselines(scene, last.design, weight);
+    if (!cmp.ok()) {
+      notes.push_back("no baselines: " + cmp.message());
+    } else {
+      const double garment_area = job.header.rest_area_m2.sum();
+      for (const auto& [name, design, r] : {std::tuple{"line", &cmp->line, &cmp->line_result}, std::tuple{"x", &cmp->x, &cmp->x_result}}) {
+        EvaluatedBaseline b;
+        b.name = name;
+        b.design = *design;
+        b.positions = r->positions;
+        b.energy_density_Pa = r->face_density_Pa;
+        b.area_fraction = r->reinforced_area_m2 / garment_area;
+        b.energy_J = r->solve.energy_J;
+        b.reinforced_energy_J = r->reinforced_energy_J;
+        b.reinforced_density_J_per_m2 = r->reinforced_density_J_per_m2;
+        b.density_ratio = full_density > 0 ? r->reinforced_density_J_per_m2 / full_density : 0;
+        b.status = ToString(r->solve.status);
+        e.baselines.push_back(std::move(b));
+      }
+    }
+  }
+  for (size_t i = 0; i < notes.size(); ++i) e.note += (i ? "; " : "") + notes[i];
+  return e;
 }
 
 int IterationsLeft(const DesignJob& job, const BesoIteration& it) {

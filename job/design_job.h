@@ -12,6 +12,7 @@
 #include "core/beso/design_loop.h"
 #include "core/scene/scene.h"
 #include "kgd/v1/kgd.pb.h"
+#include "store/design_evaluation.h"
 #include "store/design_file.h"
 
 namespace kgd {
@@ -43,6 +44,13 @@ Status CheckStoredGarment(const SceneSpec& scene, const DesignFileHeader& header
 // Runs the job from its last iteration (or from the start): every new iteration goes to
 // `on_iteration`, which returns false to stop after it. Returns the new iterations.
 Result<std::vector<BesoIteration>> RunDesignJob(const DesignJob& job, const std::function<bool(const BesoIteration&)>& on_iteration);
+
+// The job's finished design (`last`, with arrays) beyond the deformed pose: simulated through every
+// frame of the scene's motion (none without one), and the Line and X baselines of its reinforced area
+// beside it (none unless the garment has two attachment bands; `note` says why). `first` is iteration 0
+// (its metrics; with its energies the bands centre where the fully reinforced garment works hardest,
+// else where `last` does); density ratios are against it.
+Result<DesignEvaluation> EvaluateDesign(const DesignJob& job, const BesoIteration& first, const BesoIteration& last);
 
 // Iterations a job probably still runs after `it`: to shrink the target to the budget at ER per
 // iteration, then the stop window; capped by max_iterations; 0 after an iteration 0 with nothing to

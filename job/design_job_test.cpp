@@ -124,3 +124,85 @@ TEST(DesignJob, IterationsLeftCountsDownToTheBudgetAndTheWindow) {
 
 }  // namespace
 }  // namespace kgd
+
+namespace kgd {
+namespace {
+
+// Runs a short design job and returns it with its first and last iterations (arrays on both).
+struct ShortRun {
+  DesignJob job;
+  BesoIteration first, last;
+};
+ShortRun RunShort(SceneSpec scene, int iterations) {
+  v1::OptimizerSettings o;
+  o.set_max_iterations(iterations);
+  Result<DesignJob> job = NewDesignJob(std::move(scene), o, "test", "");
+  EXPECT_TRUE(job.ok()) << job.message();
+  ShortRun r{*job, {}, {}};
+  Result<std::vector<BesoIteration>> run = RunDesignJob(*job, {});
+  EXPECT_TRUE(run.ok()) << run.message();
+  r.first = run->front();
+  r.last = run->back();
+  return r;
+}
+
+TEST(DesignJob, TheEvaluationFollowsTheFinalDesignThroughTheMotionAndBesideTheBaselines) {
+  Result<SceneSpec> scene = BuiltinScene("arm_flexion");
+  ASSERT_TRUE(scene.ok()) << scene.message();
+  const ShortRun r = RunShort(*scene, 3);
+  Result<DesignEvaluation> e = EvaluateDesign(r.job, r.first, r.last);
+  ASSERT_TRUE(e.ok()) << e.message();
+  EXPECT_EQ(e->iteration, 3);
+  EXPECT_EQ(e->note, "");
+  ASSERT_EQ(e->frames.size(), 8u);
+  const int nv = static_cast<int>(r.job.header.garment.vertices.rows()), nf = static_cast<int>(r.job.header.garment.faces.rows());
+  double previous = 0;
+  for (size_t k = 0; k < e->frames.size(); ++k) {
+    const EvaluatedFrame& f = e->frames[k];
+    EXPECT_EQ(f.garment.rows(), nv);
+    EXPECT_EQ(f.energy_density_Pa.size(), nf);
+    EXPECT_EQ(f.status, "converged") << "frame " << k + 1;
+    EXPECT_TRUE(f.body == r.job.scene.motion->frames[k]) << "frame " << k + 1 << " carries its body";
+    EXPECT_GT(f.energy_J, previous) << "a flexing elbow stores more in every frame";
+    previous = f.energy_J;
+  }
+  // The last frame is the deformed pose the loop simulated, reached through the motion instead of from
+  // the garment put on in that pose: the frictionless sleeve may settle a few mm further along the limb
+  // (sliding costs almost nothing), at the same energy to 1e-4.
+  EXPECT_NEAR(e->frames.back().energy_J, r.last.energy_J, 1e-4 * r.last.energy_J);
+
+  ASSERT_EQ(e->baselines.size(), 2u);
+  EXPECT_EQ(e->baselines[0].name, "line");
+  EXPECT_EQ(e->baselines[1].name, "x");
+  for (const EvaluatedBaseline& b : e->baselines) {
+    EXPECT_EQ(static_cast<int>(b.design.size()), nf);
+    EXPECT_EQ(b.positions.rows(), nv);
+    EXPECT_NEAR(b.area_fraction, r.last.area_fraction, 0.01) << b.name << ": the baselines have the design's area";
+    EXPECT_DOUBLE_EQ(b.density_ratio, b.reinforced_density_J_per_m2 / r.first.reinforced_density_J_per_m2);
+    EXPECT_EQ(b.status, "converged");
+  }
+
+  // A resumed job holds iteration 0's metrics only: its energies are simulated again, to the same bands.
+  BesoIteration metrics_only = MetricsOnly(r.first);
+  Result<DesignEvaluation> resumed = EvaluateDesign(r.job, metrics_only, r.last);
+  ASSERT_TRUE(resumed.ok()) << resumed.message();
+  ASSERT_EQ(resumed->baselines.size(), 2u);
+  EXPECT_EQ(resumed->baselines[0].design, e->baselines[0].design);
+  EXPECT_EQ(resumed->baselines[1].design, e->baselines[1].design);
+}
+
+TEST(DesignJob, AFlatSceneIsEvaluatedWithoutFramesAndSaysSo) {
+  Result<SceneSpec> scene = PullTestScene("all_cloth");
+  ASSERT_TRUE(scene.ok());
+  const ShortRun r = RunShort(*scene, 2);
+  Result<DesignEvaluation> e = EvaluateDesign(r.job, r.first, r.last);
+  ASSERT_TRUE(e.ok()) << e.message();
+  EXPECT_TRUE(e->frames.empty());
+  EXPECT_NE(e->note.find("no motion frames"), std::string::npos) << e->note;
+  Result<DesignEvaluation> wrong = EvaluateDesign(r.job, r.last, r.last);
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_NE(wrong.message().find("not 0"), std::string::npos) << wrong.message();
+}
+
+}  // namespace
+}  // namespace kgd

@@ -129,6 +129,11 @@ v1::Garment GarmentToProto(const DesignFileHeader& h) {
   Append(h.rest_area_m2.data(), h.rest_area_m2.size(), g.mutable_rest_area_m2());
   Append(h.initial.data(), h.initial.size(), g.mutable_initial_positions());
   for (int a : h.attachment_faces) g.add_attachment_faces(a);
+  g.set_cloth_thickness_m(h.cloth_thickness_m);
+  g.set_reinforced_thickness_m(h.reinforced_thickness_m);
+  Append(h.body_mesh.vertices.data(), h.body_mesh.vertices.size(), g.mutable_body_vertices());
+  for (Eigen::Index f = 0; f < h.body_mesh.faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) g.add_body_faces(h.body_mesh.faces(f, k));
   return g;
 }
 
@@ -155,7 +160,103 @@ Status GarmentFromProto(const v1::Garment& g, DesignFileHeader* h) {
   h->attachment_faces.assign(g.attachment_faces().begin(), g.attachment_faces().end());
   for (int a : h->attachment_faces)
     if (a < 0 || a >= nf) return Status::Error("garment: attachment face " + std::to_string(a) + " is not a face");
+  if (!(g.cloth_thickness_m() >= 0) || !(g.reinforced_thickness_m() >= 0))
+    return Status::Error("garment: thicknesses must be >= 0 m");
+  h->cloth_thickness_m = g.cloth_thickness_m();
+  h->reinforced_thickness_m = g.reinforced_thickness_m();
+  const int bv = g.body_vertices_size() / 3, bf = g.body_faces_size() / 3;
+  if (g.body_vertices_size() % 3 || g.body_faces_size() % 3 || (bv == 0) != (bf == 0))
+    return Status::Error("garment: body_vertices and body_faces must be lists of triples, both empty or both not");
+  h->body_mesh.vertices.resize(bv, 3);
+  for (int i = 0; i < 3 * bv; ++i) h->body_mesh.vertices.data()[i] = g.body_vertices(i);
+  h->body_mesh.faces.resize(bf, 3);
+  for (int f = 0; f < bf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int v = g.body_faces(3 * f + k);
+      if (v < 0 || v >= bv) return Status::Error("garment: body face " + std::to_string(f) + " names vertex " + std::to_string(v));
+      h->body_mesh.faces(f, k) = v;
+    }
   return Status::Ok();
+}
+
+namespace {
+
+template <typename Field>
+Result<Positions> PositionsFrom(const Field& f, int rows, const std::string& what) {
+  if (f.size() % 3 || (rows > 0 && f.size() != 3 * rows))
+    return Status::Error(what + ": " + std::to_string(f.size()) + " coordinates" + (rows > 0 ? " for " + std::to_string(rows) + " vertices" : ""));
+  Positions x(f.size() / 3, 3);
+  for (int i = 0; i < f.size(); ++i) x.data()[i] = f[i];
+  return x;
+}
+
+}  // namespace
+
+v1::DesignEvaluation EvaluationToProto(const DesignEvaluation& e) {
+  v1::DesignEvaluation p;
+  p.set_iteration(e.iteration);
+  p.set_note(e.note);
+  for (const EvaluatedFrame& f : e.frames) {
+    v1::MotionFrame* m = p.add_frames();
+    Append(f.garment.data(), f.garment.size(), m->mutable_positions());
+    Append(f.body.data(), f.body.size(), m->mutable_body_vertices());
+    Append(f.energy_density_Pa.data(), f.energy_density_Pa.size(), m->mutable_energy_density_pa());
+    m->set_energy_j(f.energy_J);
+    m->set_solve_status(f.status);
+  }
+  for (const EvaluatedBaseline& b : e.baselines) {
+    v1::BaselineRecord* r = p.add_baselines();
+    r->set_name(b.name);
+    r->set_design(std::string(b.design.begin(), b.design.end()));
+    Append(b.positions.data(), b.positions.size(), r->mutable_positions());
+    Append(b.energy_density_Pa.data(), b.energy_density_Pa.size(), r->mutable_energy_density_pa());
+    r->set_area_fraction(b.area_fraction);
+    r->set_energy_j(b.energy_J);
+    r->set_reinforced_energy_j(b.reinforced_energy_J);
+    r->set_reinforced_density_j_per_m2(b.reinforced_density_J_per_m2);
+    r->set_density_ratio(b.density_ratio);
+    r->set_solve_status(b.status);
+  }
+  return p;
+}
+
+Result<DesignEvaluation> EvaluationFromProto(const v1::DesignEvaluation& p, int faces, int vertices, int body_vertices) {
+  DesignEvaluation e;
+  e.iteration = p.iteration();
+  e.note = p.note();
+  for (int k = 0; k < p.frames_size(); ++k) {
+    const v1::MotionFrame& m = p.frames(k);
+    const std::string what = "evaluation frame " + std::to_string(k + 1);
+    Result<Positions> x = PositionsFrom(m.positions(), vertices, what + " positions");
+    Result<Positions> body = PositionsFrom(m.body_vertices(), m.body_vertices_size() ? body_vertices : 0, what + " body_vertices");
+    if (!x.ok()) return x.status();
+    if (!body.ok()) return body.status();
+    if (faces > 0 && m.energy_density_pa_size() != faces) return Status::Error(what + ": energy_density_Pa does not match the faces");
+    if (k > 0 && (x->rows() != e.frames[0].garment.rows() || body->rows() != e.frames[0].body.rows()))
+      return Status::Error(what + ": differs in size from frame 1");
+    e.frames.push_back({std::move(x).value(), std::move(body).value(), ToVector(m.energy_density_pa()), m.energy_j(), m.solve_status()});
+  }
+  for (const v1::BaselineRecord& r : p.baselines()) {
+    const std::string what = "evaluation baseline '" + r.name() + "'";
+    if (r.name().empty() || r.name().find('\n') != std::string::npos) return Status::Error("evaluation baseline: a name on one line is needed");
+    Result<Positions> x = PositionsFrom(r.positions(), vertices, what + " positions");
+    if (!x.ok()) return x.status();
+    if (static_cast<int>(r.design().size()) != r.energy_density_pa_size() || (faces > 0 && r.energy_density_pa_size() != faces))
+      return Status::Error(what + ": design and energy_density_Pa do not match the faces");
+    EvaluatedBaseline b;
+    b.name = r.name();
+    b.design.assign(r.design().begin(), r.design().end());
+    b.positions = std::move(x).value();
+    b.energy_density_Pa = ToVector(r.energy_density_pa());
+    b.area_fraction = r.area_fraction();
+    b.energy_J = r.energy_j();
+    b.reinforced_energy_J = r.reinforced_energy_j();
+    b.reinforced_density_J_per_m2 = r.reinforced_density_j_per_m2();
+    b.density_ratio = r.density_ratio();
+    b.status = r.solve_status();
+    e.baselines.push_back(std::move(b));
+  }
+  return e;
 }
 
 }  // namespace kgd

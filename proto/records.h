@@ -4,6 +4,7 @@
 
 #include "core/beso/design_loop.h"
 #include "kgd/v1/kgd.pb.h"
+#include "store/design_evaluation.h"
 #include "store/design_file.h"
 
 namespace kgd {
@@ -26,5 +27,9 @@ Result<BesoIteration> RecordFromProto(const v1::IterationRecord& record, int fac
 v1::Garment GarmentToProto(const DesignFileHeader& header);
 // Fills the garment part of `header` (rest mesh, initial positions, areas, attachments).
 Status GarmentFromProto(const v1::Garment& garment, DesignFileHeader* header);
+
+v1::DesignEvaluation EvaluationToProto(const DesignEvaluation& evaluation);
+// Errors: arrays that do not fit `faces` / `vertices` / `body_vertices` (0: not checked).
+Result<DesignEvaluation> EvaluationFromProto(const v1::DesignEvaluation& evaluation, int faces = 0, int vertices = 0, int body_vertices = 0);
 
 }  // namespace kgd

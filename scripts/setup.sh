@@ -17,7 +17,16 @@ PACKAGES=(
   libgrpc++-dev protobuf-compiler-grpc  # the design service (gRPC server, workers, CLI)
   libgtest-dev libgmock-dev  # unit and integration tests
   libbenchmark-dev         # benchmarks in bench/
+  libcpp-httplib-dev       # the HTTP door of the service (JSON API, Server-Sent Events, the web page)
 )
+
+# --browser: also Debian's chromium, for the web page's browser tests (`make test` passes it).
+BROWSER=0
+[ "${1:-}" = "--browser" ] && BROWSER=1
+[ $BROWSER -eq 1 ] && PACKAGES+=(chromium)
+# Node.js and npm fetch the web page's libraries (client/web/package-lock.json); a machine that has
+# them (e.g. from NodeSource) keeps its own.
+command -v npm > /dev/null || PACKAGES+=(nodejs npm)
 
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -25,12 +34,21 @@ for p in "${PACKAGES[@]}"; do
 done
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#PACKAGES[@]} packages present"
-  exit 0
+else
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  export DEBIAN_FRONTEND=noninteractive
+  echo "setup: installing ${missing[*]}"
+  $SUDO apt-get update -q
+  $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
 
-SUDO=""
-if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
-export DEBIAN_FRONTEND=noninteractive
-echo "setup: installing ${missing[*]}"
-$SUDO apt-get update -q
-$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+# The web page's libraries (three.js, uPlot) and the browser tests' driver (playwright-core), exactly as
+# locked; again only when the lock file is newer than the installed tree.
+WEB="$(cd "$(dirname "$0")/.." && pwd)/client/web"
+if [ ! -f "$WEB/node_modules/.package-lock.json" ] || [ "$WEB/package-lock.json" -nt "$WEB/node_modules/.package-lock.json" ]; then
+  echo "setup: npm ci in client/web"
+  (cd "$WEB" && npm ci --no-audit --no-fund --loglevel=error)
+else
+  echo "setup: client/web/node_modules is up to date"
+fi

@@ -23,6 +23,9 @@ class GrpcServices final : public v1::DesignService::Service, public v1::WorkerS
  public:
   explicit GrpcServices(JobService* service) : service_(*service) {}
 
+  grpc::Status ListScenes(ServerContext*, const v1::ListScenesRequest*, v1::ListScenesResponse* out) override {
+    return ToGrpc(service_.ListScenes(out));
+  }
   grpc::Status CreateJob(ServerContext*, const v1::CreateJobRequest* req, v1::Job* out) override {
     return ToGrpc(service_.CreateJob(*req, out));
   }
@@ -35,6 +38,9 @@ class GrpcServices final : public v1::DesignService::Service, public v1::WorkerS
   }
   grpc::Status GetIteration(ServerContext*, const v1::GetIterationRequest* req, v1::GetIterationResponse* out) override {
     return ToGrpc(service_.GetIteration(*req, out));
+  }
+  grpc::Status GetEvaluation(ServerContext*, const v1::GetEvaluationRequest* req, v1::DesignEvaluation* out) override {
+    return ToGrpc(service_.GetEvaluation(req->id(), out));
   }
   grpc::Status WatchJob(ServerContext* ctx, const v1::WatchJobRequest* req, grpc::ServerWriter<v1::WatchJobEvent>* writer) override {
     return ToGrpc(service_.WatchJob(

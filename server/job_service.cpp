@@ -11,6 +11,7 @@
 #include <mutex>
 #include <thread>
 
+#include "core/scene/builtin_scenes.h"
 #include "proto/job_spec.h"
 #include "proto/records.h"
 #include "server/job_store.h"
@@ -284,6 +285,29 @@ ServiceStatus JobService::CreateJob(const v1::CreateJobRequest& req, v1::Job* ou
   return ServiceStatus::Ok();
 }
 
+ServiceStatus JobService::ListScenes(v1::ListScenesResponse* out) {
+  for (const BuiltinSceneInfo& s : BuiltinSceneInfos()) {
+    v1::BuiltinScene* b = out->add_scenes();
+    b->set_name(s.name);
+    b->set_garment(s.garment);
+    b->set_description(s.description);
+    b->set_budget(s.budget);
+    b->set_frames(s.frames);
+    b->set_subdivisions(s.subdivisions);
+    b->set_parametric_body(s.parametric_body);
+    b->set_garment_faces(s.garment_faces);
+    b->set_garment_area_m2(s.garment_area_m2);
+  }
+  for (const MeasurementRange& r : BodyMeasurementRanges()) {
+    v1::BodyMeasurement* m = out->add_body_measurements();
+    m->set_name(r.name);
+    m->set_default_value(r.default_value);
+    m->set_min(r.min);
+    m->set_max(r.max);
+  }
+  return ServiceStatus::Ok();
+}
+
 ServiceStatus JobService::GetJob(int64_t id, v1::Job* out) { return impl_->FindJob(id, out); }
 
 ServiceStatus JobService::ListJobs(const v1::ListJobsRequest& req, v1::ListJobsResponse* out) {
@@ -377,6 +401,20 @@ ServiceStatus JobService::GetIteration(const v1::GetIterationRequest& req, v1::G
   return ServiceStatus::Ok();
 }
 
+ServiceStatus JobService::GetEvaluation(int64_t id, v1::DesignEvaluation* out) {
+  Impl& m = *impl_;
+  v1::Job job;
+  if (ServiceStatus st = m.FindJob(id, &job); !st.ok()) return st;
+  const std::string path = EvaluationPath(m.FilePath(id));
+  if (!fs::exists(path))
+    return Error(ServiceCode::kNotFound, "job " + std::to_string(id) + " has no evaluation" +
+                                             (job.state() == v1::QUEUED || job.state() == v1::RUNNING ? " yet (it comes after the last iteration)" : ""));
+  Result<DesignEvaluation> e = ReadDesignEvaluation(path);
+  if (!e.ok()) return Internal(e.status());
+  *out = EvaluationToProto(*e);
+  return ServiceStatus::Ok();
+}
+
 ServiceStatus JobService::LeaseJob(const v1::LeaseJobRequest& req, v1::LeaseJobResponse* out, const std::function<bool()>& cancelled) {
   Impl& m = *impl_;
   const double deadline = Now() + std::clamp(req.wait_s(), 0.0, 60.0);
@@ -458,6 +496,17 @@ ServiceStatus JobService::RunJob(const std::function<bool(v1::WorkerMessage*)>& 
         m.Notify();  // watchers first: the lease renewal is one more SQLite commit
         m.store->Renew(job_id, lease_id, Now(), m.options.lease_duration_s);
       }
+    } else if (msg.has_evaluation()) {
+      // An extra after the last iteration: one that cannot be stored is logged, and the job goes on.
+      int faces = 0, vertices = 0;
+      {
+        std::lock_guard lock(m.commit_mu);
+        auto it = m.files.find(job_id);
+        if (it != m.files.end()) faces = it->second.writer->faces(), vertices = it->second.writer->vertices();
+      }
+      Result<DesignEvaluation> e = faces ? EvaluationFromProto(msg.evaluation(), faces, vertices) : Status::Error("no design file is open");
+      Status st = e.ok() ? WriteDesignEvaluation(EvaluationPath(m.FilePath(job_id)), *e) : e.status();
+      if (!st.ok()) m.Log("job " + std::to_string(job_id) + ": evaluation not stored: " + st.message());
     } else if (msg.has_complete()) {
       end = started ? v1::SUCCEEDED : v1::FAILED, failure = started ? "" : "completed without starting", ended = true;
     } else if (msg.has_fail()) {

@@ -5,6 +5,8 @@
 // It owns one data folder:
 //   DIR/kgd.sqlite       the job store (server/job_store.h): queue, leases, iteration metrics
 //   DIR/jobs/job-N.h5    each job's design file (store/design_file.h), written from worker reports
+//   DIR/jobs/job-N.evaluation.h5   its finished design over the motion and beside the baselines
+//                        (store/design_evaluation.h), when the worker sends one after the last iteration
 // It stores and streams; it never simulates. An iteration is acknowledged to its worker after it is
 // in the HDF5 file (flushed, SWMR) and then in SQLite (committed), in that order, so a service killed
 // at any moment restarts with every acknowledged iteration; on open it trims any HDF5 iteration SQLite
@@ -69,11 +71,15 @@ class JobService {
   const JobServiceOptions& options() const;
 
   // -- For clients ---------------------------------------------------------------------------------
+  // The built-in scenes and the parametric body's measurements (a fixed table: nothing is built).
+  ServiceStatus ListScenes(v1::ListScenesResponse* response);
   ServiceStatus CreateJob(const v1::CreateJobRequest& request, v1::Job* job);
   ServiceStatus GetJob(int64_t id, v1::Job* job);
   ServiceStatus ListJobs(const v1::ListJobsRequest& request, v1::ListJobsResponse* response);
   ServiceStatus CancelJob(int64_t id, v1::Job* job);
   ServiceStatus GetIteration(const v1::GetIterationRequest& request, v1::GetIterationResponse* response);
+  // The finished design over the motion and beside the baselines (DIR/jobs/job-N.evaluation.h5).
+  ServiceStatus GetEvaluation(int64_t id, v1::DesignEvaluation* evaluation);
   // Sends the job, its stored iterations from request.from_iteration(), then every new one and every
   // state change as they come, until the job ends (OK), `write` returns false (the client is gone:
   // OK) or `cancelled` returns true / the service stops (CANCELLED).

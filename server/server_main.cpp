@@ -5,6 +5,7 @@
 
 #include "core/util/termination.h"
 #include "server/design_server.h"
+#include "server/http_gateway.h"
 
 int main(int argc, char** argv) {
   kgd::server::ServerOptions o;
@@ -21,7 +22,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--drain-s", o.drain_timeout_s, "On SIGTERM, seconds to wait for workers to checkpoint")->capture_default_str();
   app.add_flag("--quiet", o.quiet, "No log lines");
+  kgd::server::HttpOptions http{.address = "", .web_dir = KGD_WEB_DIR};
+  double max_upload_mb = 64;
+  app.add_option("--http", http.address, "host:port of the web page and the HTTP/JSON API (default: none; port 0: any free port)");
+  app.add_option("--web", http.web_dir, "Folder of the web page's files")->capture_default_str();
+  app.add_option("--max-upload-mb", max_upload_mb, "Largest HTTP request body accepted (MiB)")->check(CLI::PositiveNumber)->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  http.max_upload_bytes = static_cast<size_t>(max_upload_mb * (1 << 20));
   o.max_message_bytes = static_cast<int>(max_message_mb * (1 << 20));
 
   kgd::BlockTerminationSignals();
@@ -32,8 +39,19 @@ int main(int argc, char** argv) {
   }
   // The port line is for scripts and tests that listen on port 0.
   std::printf("listening on %s\n", (*server)->address().c_str());
+  std::unique_ptr<kgd::server::HttpGateway> gateway;
+  if (!http.address.empty()) {
+    auto g = kgd::server::HttpGateway::Start(&(*server)->service(), http);
+    if (!g.ok()) {
+      std::fprintf(stderr, "kgd-server: %s\n", g.message().c_str());
+      return 1;
+    }
+    gateway = std::move(g).value();
+    std::printf("http on %s\n", gateway->url().c_str());
+  }
   std::fflush(stdout);
   kgd::WaitForTerminationSignal();
+  if (gateway) gateway->Stop();
   (*server)->Drain();
   (*server)->Shutdown();
   return 0;

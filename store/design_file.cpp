@@ -209,6 +209,31 @@ Result<std::unique_ptr<DesignFileReader>> OpenDesignFileReader(const std::string
           return Fail(path, "/garment/faces row " + std::to_string(f) + " has vertex index " + std::to_string(v) + " out of range");
         h.garment.faces(f, k) = v;
       }
+    if (Shape(g, "thickness") == std::vector<hsize_t>{2}) {
+      double t[2];
+      if (!ReadAll(g, "thickness", H5T_NATIVE_DOUBLE, t)) return Fail(path, "cannot read /garment/thickness (damaged?)");
+      h.cloth_thickness_m = t[0];
+      h.reinforced_thickness_m = t[1];
+    }
+  }
+  if (H5Lexists(r.file, "body", H5P_DEFAULT) > 0) {
+    Id b(H5Gopen2(r.file, "body", H5P_DEFAULT), H5Gclose);
+    const std::vector<hsize_t> vs = Shape(b, "vertices"), fs = Shape(b, "faces");
+    if (!b.ok() || vs.size() != 2 || vs[1] != 3 || fs.size() != 2 || fs[1] != 3)
+      return Fail(path, "/body datasets are missing or have inconsistent shapes");
+    std::vector<double> x(vs[0] * 3);
+    std::vector<int> faces(fs[0] * 3);
+    if (!ReadAll(b, "vertices", H5T_NATIVE_DOUBLE, x.data()) || !ReadAll(b, "faces", H5T_NATIVE_INT, faces.data()))
+      return Fail(path, "cannot read /body (damaged?)");
+    h.body_mesh.vertices = FromRowMajor(x);
+    h.body_mesh.faces.resize(fs[0], 3);
+    for (hsize_t f = 0; f < fs[0]; ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int v = faces[3 * f + k];
+        if (v < 0 || v >= static_cast<int>(vs[0]))
+          return Fail(path, "/body/faces row " + std::to_string(f) + " has vertex index " + std::to_string(v) + " out of range");
+        h.body_mesh.faces(f, k) = v;
+      }
   }
   r.its = Id(H5Gopen2(r.file, "iterations", H5P_DEFAULT), H5Gclose);
   if (!r.its.ok()) return Fail(path, "/iterations is missing");
@@ -311,6 +336,18 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
          WriteFixed(g, "initial_positions", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {nv, 3}, initial.data()) &&
          WriteFixed(g, "attachment_faces", H5T_STD_I32LE, H5T_NATIVE_INT, {h.attachment_faces.size()},
                     h.attachment_faces.data());
+    const double thickness[2] = {h.cloth_thickness_m, h.reinforced_thickness_m};
+    ok = ok && WriteFixed(g, "thickness", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {2}, thickness);
+  }
+  if (h.body_mesh.faces.rows() > 0) {
+    Id b(H5Gcreate2(m.file, "body", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+    const hsize_t bv = h.body_mesh.vertices.rows(), bf = h.body_mesh.faces.rows();
+    std::vector<int> faces(bf * 3);
+    for (hsize_t f = 0; f < bf; ++f)
+      for (int k = 0; k < 3; ++k) faces[3 * f + k] = h.body_mesh.faces(f, k);
+    const std::vector<double> x = RowMajor(h.body_mesh.vertices);
+    ok = ok && b.ok() && WriteFixed(b, "vertices", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {bv, 3}, x.data()) &&
+         WriteFixed(b, "faces", H5T_STD_I32LE, H5T_NATIVE_INT, {bf, 3}, faces.data());
   }
   m.iterations = Id(H5Gcreate2(m.file, "iterations", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
   ok = ok && m.iterations.ok() && CreateGrowing(m.iterations, "iteration", H5T_STD_I32LE, {}) &&

@@ -11,6 +11,9 @@
 //   /garment/rest_area           (F)   float64, m^2
 //   /garment/initial_positions   (V,3) float64, m: the garment on the body in the deformed pose
 //   /garment/attachment_faces    (A)   int32
+//   /garment/thickness           (2)   float64, m: cloth, reinforced (optional: files before it lack it)
+//   /body/vertices, /body/faces  (B,3) float64 m, (G,3) int32: the body in the simulated pose
+//                                (optional: scenes without a body, and files before it, have none)
 //   /iterations/<metric>         (N)   one dataset per metric (DesignFileMetricNames): float64, or
 //                                int32 for iteration, status, solver_iterations, cold_restart;
 //                                status: 0 converged, 1 line_search_failed, 2 not_positive_definite,
@@ -55,6 +58,9 @@ struct DesignFileHeader {
   Positions initial;          // on the body in the deformed pose
   Eigen::VectorXd rest_area_m2;
   std::vector<int> attachment_faces;
+  // Material thicknesses (m), to turn energy densities (J/m^3) into energy per area (J/m^2); 0: unknown.
+  double cloth_thickness_m = 0, reinforced_thickness_m = 0;
+  TriMesh body_mesh;          // the body in the simulated pose; empty when the scene has none
 };
 
 struct DesignFile {

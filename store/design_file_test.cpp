@@ -66,8 +66,14 @@ TEST(DesignFile, RoundTripsAHistoryBitForBit) {
   const Fixture f = MakeRun(4);
   ASSERT_EQ(f.run.size(), 5u);
   const std::string path = TempPath("roundtrip.h5");
+  // A body (any mesh) and the thicknesses travel with the header.
+  DesignFileHeader header = f.header;
+  header.body_mesh = f.scene.garment;
+  header.body_mesh.vertices.array() += 0.01;
+  header.cloth_thickness_m = 0.27e-3;
+  header.reinforced_thickness_m = 0.5e-3;
   {
-    auto w = DesignFileWriter::Create(path, f.header);
+    auto w = DesignFileWriter::Create(path, header);
     ASSERT_TRUE(w.ok()) << w.message();
     for (const BesoIteration& it : f.run) ASSERT_TRUE((*w)->Append(it).ok());
     // Out of order is refused.
@@ -82,6 +88,10 @@ TEST(DesignFile, RoundTripsAHistoryBitForBit) {
   EXPECT_TRUE(d->header.garment.faces == f.scene.garment.faces);
   EXPECT_TRUE(d->header.initial == f.scene.initial);
   EXPECT_EQ(d->header.attachment_faces, (std::vector<int>{1, 2, 3}));
+  EXPECT_TRUE(d->header.body_mesh.vertices == header.body_mesh.vertices);
+  EXPECT_TRUE(d->header.body_mesh.faces == header.body_mesh.faces);
+  EXPECT_EQ(d->header.cloth_thickness_m, 0.27e-3);
+  EXPECT_EQ(d->header.reinforced_thickness_m, 0.5e-3);
   ASSERT_EQ(d->iterations.size(), f.run.size());
   for (size_t k = 0; k < f.run.size(); ++k) ExpectSame(d->iterations[k], f.run[k]);
 

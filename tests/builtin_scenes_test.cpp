@@ -68,6 +68,12 @@ TEST_P(BuiltinScene, PosesGarmentAndFullyReinforcedFrames) {
   EXPECT_EQ(EdgeConnectedPieces(scene->garment.faces).count, 1);
   EXPECT_EQ(static_cast<int>(BoundaryLoops(scene->garment.faces).size()), e.open_ends);
   EXPECT_DOUBLE_EQ(scene->budget, e.budget);
+  // What the scene list (kgd scenes, the service's ListScenes) says of its size.
+  for (const BuiltinSceneInfo& info : BuiltinSceneInfos())
+    if (info.name == name) {
+      EXPECT_EQ(info.garment_faces, scene->garment.faces.rows()) << name;
+      EXPECT_NEAR(info.garment_area_m2, FaceAreas(scene->garment.vertices, scene->garment.faces).sum(), 1e-4) << name;
+    }
   ASSERT_FALSE(scene->attachment_faces.empty());
   EXPECT_LT(scene->attachment_faces.size(), scene->garment.faces.rows() / 3);
   EXPECT_TRUE(scene->effects.attachments);

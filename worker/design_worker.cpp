@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstdio>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -137,7 +138,12 @@ struct DesignWorker::Impl {
       start.mutable_start()->set_settings_json(BesoSettingsToJson(job->settings()));
       if (!send(start)) lost = true;
       auto keep_going = [&] { return !(cancel || drain || lost || stop); };
+      // Iteration 0 and the last, for the evaluation after the loop (a resumed job's come from its history).
+      std::optional<BesoIteration> first, last;
+      if (!job->history.empty()) first = job->history.front(), last = job->history.back();
       auto on_iteration = [&](const BesoIteration& it) {
+        if (it.iteration == 0) first = it;
+        last = it;
         v1::WorkerMessage m;
         *m.mutable_iteration() = RecordToProto(it);
         m.mutable_iteration()->mutable_metrics()->set_report_time_s(
@@ -152,6 +158,18 @@ struct DesignWorker::Impl {
       if (keep_going()) {
         run = RunDesignJob(*job, on_iteration);
         if (!run.ok()) failure = run.message();
+      }
+      // The finished design over the motion and beside the baselines: a failure here is reported in the
+      // log and costs the job nothing (the evaluation is an extra, the design is done).
+      if (failure.empty() && keep_going() && first && last) {
+        Result<DesignEvaluation> evaluation = EvaluateDesign(*job, *first, *last);
+        if (evaluation.ok()) {
+          v1::WorkerMessage m;
+          *m.mutable_evaluation() = EvaluationToProto(*evaluation);
+          if (!send(m)) lost = true;
+        } else {
+          Log("job " + std::to_string(lease.job_id()) + ": no evaluation: " + evaluation.message());
+        }
       }
     }
     done = true;

@@ -48,6 +48,13 @@ Result<std::optional<BodyMeasurements>> ParseBodyMeasurements(const std::vector<
   return std::optional<BodyMeasurements>(m);
 }
 
+std::vector<MeasurementRange> BodyMeasurementRanges() {
+  const BodyMeasurements defaults;
+  std::vector<MeasurementRange> out;
+  for (const MeasurementField& f : kMeasurementFields) out.push_back({f.name, defaults.*f.field, f.lo, f.hi});
+  return out;
+}
+
 Status SetMeasurement(BodyMeasurements* m, const std::string& name, double value) {
   std::string known;
   for (const MeasurementField& f : kMeasurementFields) {

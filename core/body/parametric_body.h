@@ -43,6 +43,13 @@ struct BodyMeasurements {
   double resolution_m = 0.013;       // edge length of the surface mesh (m): 15k vertices at 1.3 cm, 38k at 8 mm; at most 13 mm
 };
 
+// Every measurement by name, with its default and the range ValidateMeasurements accepts (SI).
+struct MeasurementRange {
+  const char* name;
+  double default_value, min, max;
+};
+std::vector<MeasurementRange> BodyMeasurementRanges();
+
 // Ranges that keep the construction meaningful (e.g. a thigh thinner than the knee is refused).
 Status ValidateMeasurements(const BodyMeasurements& m);
 

@@ -316,12 +316,17 @@ Result<TriMesh> ReadMesh(const std::string& path) {
 
 Status WritePly(const std::string& path, const Positions& x, const Faces& faces,
                 const std::vector<FaceProperty>& face_properties) {
+  std::ofstream out(path, std::ios::binary);
+  if (!out) return Status::Error(path + ": cannot open for writing");
+  return WritePly(out, path, x, faces, face_properties);
+}
+
+Status WritePly(std::ostream& out, const std::string& path, const Positions& x, const Faces& faces,
+                const std::vector<FaceProperty>& face_properties) {
   for (const auto& p : face_properties)
     if (p.values.size() != faces.rows())
       return Status::Error(path + ": face property '" + p.name + "' has " + std::to_string(p.values.size()) +
                            " values for " + std::to_string(faces.rows()) + " faces");
-  std::ofstream out(path, std::ios::binary);
-  if (!out) return Status::Error(path + ": cannot open for writing");
   out << "ply\nformat binary_little_endian 1.0\ncomment kgd output, units: metres\n";
   out << "element vertex " << x.rows() << "\nproperty double x\nproperty double y\nproperty double z\n";
   out << "element face " << faces.rows() << "\nproperty list uchar int vertex_indices\n";

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,10 @@ struct FaceProperty {
 
 // Writes binary little-endian PLY with double vertex coordinates and optional per-face properties.
 Status WritePly(const std::string& path, const Positions& x, const Faces& faces,
+                const std::vector<FaceProperty>& face_properties = {});
+
+// The same PLY to a stream (e.g. an HTTP download); `name` is for messages.
+Status WritePly(std::ostream& out, const std::string& name, const Positions& x, const Faces& faces,
                 const std::vector<FaceProperty>& face_properties = {});
 
 // Writes an OBJ file (vertices with 9 significant digits, 1-based faces).

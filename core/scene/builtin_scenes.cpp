@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <map>
 
 #include "core/scene/paper_scenes.h"
 #include "core/scene/scene_file.h"
@@ -126,6 +127,35 @@ std::vector<std::string> BuiltinSceneNames() {
   for (const char* n : {"sleeve_on_limb", "pull_test_all_cloth", "pull_test_all_reinforced", "pull_test_line", "pull_test_x"})
     names.push_back(n);
   return names;
+}
+
+std::vector<BuiltinSceneInfo> BuiltinSceneInfos() {
+  // The paper scenes' garments on the default body (building one takes seconds; tests/builtin_scenes_test
+  // holds this table to the scenes).
+  const std::map<std::string, std::pair<int, double>> size = {
+      {"arm_flexion", {13936, 0.04731}}, {"arm_extension", {13936, 0.04715}}, {"knee_flexion", {5200, 0.08252}},
+      {"knee_extension", {5200, 0.08269}}, {"slouch", {33368, 0.4959}}, {"crouch", {19716, 0.3083}}, {"lunge", {19716, 0.3083}}};
+  std::vector<BuiltinSceneInfo> out;
+  for (const PaperMotion& m : PaperMotions()) {
+    const auto it = size.find(m.name);
+    out.push_back({m.name, m.garment, m.description, m.budget, m.frames, m.subdivisions, true, it == size.end() ? 0 : it->second.first,
+                   it == size.end() ? 0 : it->second.second});
+  }
+  for (const std::string& n : BuiltinSceneNames()) {
+    bool paper = false;
+    for (const PaperMotion& m : PaperMotions()) paper |= m.name == n;
+    if (paper) continue;
+    BuiltinSceneInfo info{n, "", "", 1.0, 0, 0, false};
+    info.description = n.rfind("pull_test", 0) == 0 ? "pull test of the paper's 2D validation" : "sleeve on a capsule limb (simulator checks)";
+    // These scenes are small and need no body: their budget is read off the scene itself.
+    if (Result<SceneSpec> s = BuiltinScene(n); s.ok()) {
+      info.budget = s->budget;
+      info.garment_faces = static_cast<int>(s->garment.faces.rows());
+      info.garment_area_m2 = FaceAreas(s->garment.vertices, s->garment.faces).sum();
+    }
+    out.push_back(info);
+  }
+  return out;
 }
 
 Result<SceneSpec> BuiltinScene(const std::string& name, const BodyMeasurements& measurements) {

@@ -21,6 +21,20 @@ Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector
 
 // Scenes built into the program (no files needed).
 std::vector<std::string> BuiltinSceneNames();
+// What `kgd scenes` and the service's ListScenes show of each, in BuiltinSceneNames order; cheap (no
+// body is built).
+struct BuiltinSceneInfo {
+  std::string name;
+  std::string garment;       // the paper's garment region; empty for the simulator checks
+  std::string description;
+  double budget = 1.0;       // reinforced fraction of the garment area
+  int frames = 0;            // frames of the motion; 0: a static scene
+  int subdivisions = 0;
+  bool parametric_body = false;  // made to body measurements (--body, JobSpec.body)
+  int garment_faces = 0;         // the garment's size on the default body
+  double garment_area_m2 = 0;
+};
+std::vector<BuiltinSceneInfo> BuiltinSceneInfos();
 Result<SceneSpec> BuiltinScene(const std::string& name);
 // The same with the paper's scenes on a parametric body made to these measurements.
 Result<SceneSpec> BuiltinScene(const std::string& name, const BodyMeasurements& body);

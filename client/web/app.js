@@ -1,0 +1,371 @@
+// The kgd web page: submit design jobs, follow them live in 3D and in charts, explore every stored
+// iteration, download results. Talks only to the HTTP API (api.js).
+import * as api from './api.js';
+import { GarmentView } from './view3d.js';
+import { RunCharts } from './charts.js';
+
+const $ = (id) => document.getElementById(id);
+const state = {
+  scenes: [],               // BuiltinScene
+  measurements: [],         // BodyMeasurement
+  jobs: new Map(),          // id -> Job
+  selected: null,           // job id (string)
+  job: null,                // the selected Job
+  metrics: [],              // IterationMetrics of the selected job, by iteration
+  watch: null,              // EventSource
+  shown: -1,                // the iteration on screen
+  loading: false, pending: null,
+};
+const view = new GarmentView($('view'));
+const charts = new RunCharts();
+// For the browser tests: what is on screen.
+window.kgd = { state, view, charts, rendered: 0 };
+
+function status(text) { $('server-status').textContent = text; }
+
+// -- Submit --------------------------------------------------------------------------------------------
+
+function budgetOf(spec) {
+  if (spec?.optimizer?.budget) return spec.optimizer.budget;
+  const s = state.scenes.find((x) => x.name === spec?.builtinScene);
+  return s ? s.budget : 1;
+}
+
+async function loadScenes() {
+  const r = await api.scenes();
+  state.scenes = r.scenes || [];
+  state.measurements = r.bodyMeasurements || [];
+  const sel = $('scene');
+  sel.innerHTML = '';
+  for (const s of state.scenes) {
+    const o = document.createElement('option');
+    o.value = s.name;
+    o.textContent = s.garment ? `${s.name} (${s.garment}, ${s.garmentFaces} faces, budget ${s.budget})` : s.name;
+    sel.append(o);
+  }
+  const fields = $('body-fields');
+  fields.innerHTML = '';
+  for (const m of state.measurements) {
+    if (m.name === 'resolution_m') continue;
+    const id = `body-${m.name}`;
+    const l = document.createElement('label');
+    l.htmlFor = id;
+    l.textContent = m.name.replace(/_m$/, '').replaceAll('_', ' ');
+    const i = document.createElement('input');
+    Object.assign(i, { id, type: 'number', min: m.min, max: m.max, step: 0.005, placeholder: m.defaultValue });
+    i.dataset.measurement = m.name;
+    fields.append(l, i);
+  }
+  sceneChanged();
+}
+
+function sceneChanged() {
+  const s = state.scenes.find((x) => x.name === $('scene').value);
+  $('scene-description').textContent = s ? `${s.description}${s.frames ? ` ${s.frames} frames.` : ''}` : '';
+  $('body-details').hidden = !s?.parametricBody;
+}
+
+function clearErrors() {
+  for (const p of document.querySelectorAll('.error[data-for]')) p.textContent = '';
+  for (const e of document.querySelectorAll('.invalid')) e.classList.remove('invalid');
+}
+
+// Shows a message next to the field it names (server messages start with the field, e.g.
+// "spec.optimizer.budget: 1.5 is outside (0, 1]").
+function showError(message) {
+  const m = message.toLowerCase();
+  const field = m.includes('budget') ? 'budget' : m.includes('max_iterations') || m.includes('maxiterations') ? 'maxIterations'
+    : m.includes('scene') || m.includes('body') || m.includes('part ') ? 'scene' : 'form';
+  document.querySelector(`.error[data-for="${field}"]`).textContent = message;
+  const input = { budget: $('budget'), maxIterations: $('max-iterations') }[field];
+  if (input) input.classList.add('invalid');
+}
+
+async function submit(ev) {
+  ev.preventDefault();
+  clearErrors();
+  const spec = { optimizer: {}, label: $('label').value };
+  const budget = $('budget').value, iters = $('max-iterations').value;
+  if (budget !== '') {
+    const b = Number(budget);
+    if (!(b > 0 && b <= 1)) return showError(`budget: ${budget} is outside (0, 1]`);
+    spec.optimizer.budget = b;
+  }
+  if (iters !== '') {
+    const n = Number(iters);
+    if (!Number.isInteger(n) || n < 1) return showError(`maxIterations: ${iters} is not a whole number >= 1`);
+    spec.optimizer.maxIterations = n;
+  }
+  try {
+    let job;
+    if (document.querySelector('input[name=source]:checked').value === 'builtin') {
+      spec.builtinScene = $('scene').value;
+      spec.body = [...document.querySelectorAll('#body-fields input')].filter((i) => i.value !== '').map((i) => `${i.dataset.measurement}=${i.value}`);
+      job = await api.createJob(spec);
+    } else {
+      const file = $('scene-file').files[0];
+      if (!file) return showError('scene: choose a scene file (JSON)');
+      const form = new FormData();
+      form.append('scene', file, file.name);
+      for (const f of $('mesh-files').files) form.append(f.name, f, f.name);
+      form.append('spec', new Blob([JSON.stringify(spec)], { type: 'application/json' }), 'spec.json');
+      job = await api.postForm('/v1/jobs', form);
+    }
+    status(`job ${job.id} queued`);
+    await refreshJobs();
+    select(job.id);
+  } catch (e) {
+    showError(e.message);
+  }
+}
+
+// -- Jobs list -----------------------------------------------------------------------------------------
+
+function progressOf(job) {
+  const m = job.last;
+  if (!m || !job.iterations) return { text: job.state === 'QUEUED' ? 'waiting' : '', fraction: 0 };
+  const budget = budgetOf(job.spec);
+  const area = m.areaFraction ?? 1;
+  // ER (default 1.5 %) of the area per iteration down to the budget, then the convergence window.
+  const er = job.spec?.optimizer?.evolutionaryRatio || 0.015, window = job.spec?.optimizer?.convergeWindow || 5;
+  const left = area > budget + 1e-9 ? Math.ceil(Math.log(budget / area) / Math.log(1 - er)) + window : window;
+  const total = job.iterations + left;
+  const perIt = (m.totalS ?? 0);
+  const done = job.state !== 'RUNNING' && job.state !== 'QUEUED';
+  const eta = done ? '' : ` · ~${Math.round(left * perIt)} s left`;
+  return { text: `${job.iterations} it, ratio ${(m.densityRatio ?? 0).toFixed(2)}${eta}`, fraction: done ? 1 : job.iterations / total };
+}
+
+function renderJobs() {
+  const body = document.querySelector('#jobs tbody');
+  body.innerHTML = '';
+  for (const job of state.jobs.values()) {
+    const tr = document.createElement('tr');
+    tr.dataset.id = job.id;
+    tr.tabIndex = 0;
+    if (job.id === state.selected) tr.classList.add('selected');
+    const p = progressOf(job);
+    const scene = job.spec?.builtinScene || job.spec?.sceneFiles?.scene?.name || 'scene file';
+    tr.innerHTML = `<td>${job.id}</td><td></td><td class="state-${job.state}">${job.state}</td><td><progress max="1" aria-label="progress of job ${job.id}"></progress> <span></span></td><td></td>`;
+    tr.children[1].textContent = scene + (job.spec?.label ? ` — ${job.spec.label}` : '');
+    tr.querySelector('progress').value = p.fraction;
+    tr.querySelector('span').textContent = p.text;
+    if (job.state === 'FAILED') tr.title = job.failure;
+    if (job.state === 'QUEUED' || job.state === 'RUNNING') {
+      const b = document.createElement('button');
+      b.textContent = 'Cancel';
+      b.setAttribute('aria-label', `Cancel job ${job.id}`);
+      b.onclick = async (e) => {
+        e.stopPropagation();
+        try { await api.cancelJob(job.id); status(`job ${job.id}: cancel requested`); } catch (err) { status(err.message); }
+        refreshJobs();
+      };
+      tr.children[4].append(b);
+    }
+    tr.onclick = () => select(job.id);
+    tr.onkeydown = (e) => { if (e.key === 'Enter') select(job.id); };
+    body.append(tr);
+  }
+}
+
+async function refreshJobs() {
+  try {
+    const r = await api.jobs(50);
+    state.jobs = new Map((r.jobs || []).map((j) => [j.id, j]));
+    renderJobs();
+    status(`connected · ${state.jobs.size} job${state.jobs.size === 1 ? '' : 's'}`);
+  } catch (e) {
+    status(`server unreachable (${e.message})`);
+  }
+}
+
+// -- One job: live view and explorer -------------------------------------------------------------------
+
+async function select(id) {
+  id = String(id);
+  if (state.watch) state.watch.close();
+  Object.assign(state, { selected: id, job: state.jobs.get(id) || null, metrics: [], shown: -1, pending: null, evaluation: null, useFrame: false });
+  $('explorer').hidden = true;
+  document.querySelector('input[name=compare][value=optimized]').checked = true;
+  renderJobs();
+  $('viewer-title').textContent = `Job ${id}`;
+  charts.reset(budgetOf(state.job?.spec));
+  view.clear();
+  state.meshes = null;
+  $('scrub').max = 0;
+  $('scrub').value = 0;
+  renderDownloads();
+  state.watch = api.watch(id, {
+    onJob: (job) => {
+      state.job = job;
+      state.jobs.set(job.id, job);
+      renderJobs();
+      renderDownloads();
+      if (job.state === 'SUCCEEDED' && !state.evaluation) loadEvaluation(id);
+    },
+    onIteration: (rec) => {
+      const m = rec.metrics;
+      const n = m.iteration ?? 0;
+      state.metrics[n] = m;
+      charts.add(m);
+      const last = state.metrics.length - 1;
+      $('scrub').max = last;
+      if ($('follow').checked && !state.useFrame && target().kind === 'iteration') { $('scrub').value = last; show(); }
+    },
+  });
+}
+
+async function ensureMeshes(id) {
+  if (state.meshes) return true;
+  const faces = await api.garmentFaces(id);
+  let body = null;
+  try { body = { vertices: await api.bodyVertices(id), faces: await api.bodyFaces(id) }; } catch { /* a flat scene */ }
+  if (state.selected !== id) return false;
+  state.meshes = { faces, body };
+  view.setMeshes(faces, body);
+  view.showBody($('show-body').checked);
+  return true;
+}
+
+// What is on screen: an iteration of the run, the final design in one frame of the motion, or a
+// baseline beside it.
+function target() {
+  const e = state.evaluation;
+  const compare = document.querySelector('input[name=compare]:checked').value;
+  if (e && compare !== 'optimized') return { kind: 'baseline', name: compare };
+  const k = Number($('frame').value);
+  if (e && state.useFrame && e.frames?.length) return { kind: 'frame', k };
+  return { kind: 'iteration', n: Number($('scrub').value) };
+}
+
+async function fetchTarget(id, t, mode) {
+  const e = state.evaluation;
+  if (t.kind === 'iteration')
+    return { x: await api.positions(id, t.n), values: await (mode === 'energy' ? api.energy(id, t.n) : api.design(id, t.n)), body: null };
+  if (t.kind === 'frame') {
+    const [x, values, body] = await Promise.all([api.framePositions(id, t.k), mode === 'energy' ? api.frameEnergy(id, t.k) : api.design(id, e.iteration),
+      state.meshes.body ? api.frameBody(id, t.k) : Promise.resolve(null)]);
+    return { x, values, body };
+  }
+  return { x: await api.baselinePositions(id, t.name), values: await (mode === 'energy' ? api.baselineEnergy(id, t.name) : api.baselineDesign(id, t.name)), body: null };
+}
+
+function describe(t) {
+  const e = state.evaluation;
+  if (t.kind === 'frame') {
+    const f = e.frames[t.k - 1];
+    return `final design (iteration ${e.iteration}) in motion frame ${t.k} of ${e.frames.length}: energy ${(f.energyJ ?? 0).toPrecision(4)} J (${f.solveStatus})`;
+  }
+  if (t.kind === 'baseline') {
+    const b = e.baselines.find((x) => x.name === t.name);
+    return `${t.name === 'x' ? 'X' : 'Line'} baseline of the same area: reinforced area ${(100 * (b.areaFraction ?? 0)).toFixed(1)} %, reinforced density ${(b.reinforcedDensityJPerM2 ?? 0).toPrecision(4)} J/m², density ratio ${(b.densityRatio ?? 0).toFixed(3)}`;
+  }
+  const m = state.metrics[t.n];
+  return m ? `iteration ${t.n}: reinforced area ${(100 * (m.areaFraction ?? 0)).toFixed(1)} %, energy ${(m.energyJ ?? 0).toPrecision(4)} J, reinforced density ${(m.reinforcedDensityJPerM2 ?? 0).toPrecision(4)} J/m², density ratio ${(m.densityRatio ?? 0).toFixed(3)}` : '';
+}
+
+// Shows what the controls select; while a fetch is in flight, only the newest request waits.
+async function show() {
+  if (state.loading) { state.pending = true; return; }
+  state.loading = true;
+  const id = state.selected;
+  try {
+    if (await ensureMeshes(id)) {
+      const mode = $('color-mode').value;
+      const t = target();
+      const { x, values, body } = await fetchTarget(id, t, mode);
+      if (state.selected === id) {
+        let max = 0;
+        if (mode === 'energy') { const s = [...values].sort((a, b) => a - b); max = s[Math.floor(0.98 * (s.length - 1))] || 0; }
+        view.setBodyPose(body);
+        view.update(x, mode, values, max);
+        $('colorbar').hidden = mode !== 'energy';
+        $('colorbar-max').textContent = `≥ ${max.toPrecision(3)}`;
+        $('colorbar-min').textContent = '0';
+        state.shown = t.kind === 'iteration' ? t.n : state.evaluation.iteration;
+        state.target = t;
+        window.kgd.rendered++;
+        $('scrub-value').textContent = `${state.shown} / ${state.metrics.length - 1}`;
+        $('metrics').textContent = describe(t);
+        renderDownloads();
+      }
+    }
+  } catch (e) {
+    status(e.message);
+  } finally {
+    state.loading = false;
+    if (state.pending) { state.pending = null; show(); }
+  }
+}
+
+// The evaluation comes after the last iteration: the final design over the motion and the baselines.
+async function loadEvaluation(id) {
+  try {
+    const e = await api.evaluation(id);
+    if (state.selected !== id) return;
+    state.evaluation = e;
+    const k = e.frames?.length || 0;
+    $('explorer').hidden = false;
+    $('frame').max = Math.max(1, k);
+    $('frame').value = Math.max(1, k);
+    $('frame').disabled = k === 0;
+    $('frame-value').textContent = k ? `${k} / ${k} (deformed pose)` : 'no motion';
+    for (const r of document.querySelectorAll('input[name=compare]'))
+      r.disabled = r.value !== 'optimized' && !(e.baselines || []).some((b) => b.name === r.value);
+    const last = state.metrics[e.iteration];
+    const parts = (e.baselines || []).map((b) => `${b.name === 'x' ? 'X' : 'Line'} ${(b.densityRatio ?? 0).toFixed(2)}`);
+    $('baseline-figures').textContent = parts.length ? `density ratios: optimized ${(last?.densityRatio ?? 0).toFixed(2)}, ${parts.join(', ')}` : (e.note || '');
+  } catch { /* none (yet) */ }
+}
+
+function renderDownloads() {
+  const d = $('downloads');
+  d.innerHTML = '';
+  const id = state.selected;
+  if (!id || state.shown < 0) return;
+  const ply = document.createElement('a');
+  ply.href = `/v1/jobs/${id}/iterations/${state.shown}/design.ply`;
+  ply.download = `job-${id}-iteration-${state.shown}.ply`;
+  ply.textContent = `Download iteration ${state.shown} (PLY)`;
+  d.append(ply);
+  const ended = state.job && !['QUEUED', 'RUNNING'].includes(state.job.state);
+  if (ended) {
+    const h5 = document.createElement('a');
+    h5.href = `/v1/jobs/${id}/design-file`;
+    h5.download = `job-${id}.h5`;
+    h5.textContent = 'Download the design file (HDF5, every iteration)';
+    d.append(h5);
+  }
+}
+
+// -- Wiring --------------------------------------------------------------------------------------------
+
+$('submit-form').addEventListener('submit', submit);
+$('scene').addEventListener('change', sceneChanged);
+for (const r of document.querySelectorAll('input[name=source]'))
+  r.addEventListener('change', () => {
+    const builtin = document.querySelector('input[name=source]:checked').value === 'builtin';
+    $('builtin-fields').hidden = !builtin;
+    $('upload-fields').hidden = builtin;
+  });
+$('scrub').addEventListener('input', () => {
+  $('follow').checked = Number($('scrub').value) === state.metrics.length - 1;
+  state.useFrame = false;
+  document.querySelector('input[name=compare][value=optimized]').checked = true;
+  show();
+});
+$('frame').addEventListener('input', () => {
+  const e = state.evaluation, k = Number($('frame').value);
+  state.useFrame = true;
+  $('scrub').value = e.iteration;
+  $('frame-value').textContent = `${k} / ${e.frames.length}${k === e.frames.length ? ' (deformed pose)' : ''}`;
+  document.querySelector('input[name=compare][value=optimized]').checked = true;
+  show();
+});
+for (const r of document.querySelectorAll('input[name=compare]')) r.addEventListener('change', () => show());
+$('color-mode').addEventListener('change', () => state.shown >= 0 && show());
+$('show-body').addEventListener('change', () => view.showBody($('show-body').checked));
+
+loadScenes().catch((e) => status(`cannot load scenes: ${e.message}`));
+refreshJobs();
+setInterval(refreshJobs, 2000);

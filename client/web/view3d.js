@@ -1,0 +1,128 @@
+// The garment on the body in 3D: three.js, orbit controls, the garment coloured per face by its
+// design or by its energy per area, the body semi-transparent.
+import * as THREE from 'three';
+import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+
+// Turbo-like colour map for energy (0..1 -> rgb), the same stops as the CSS colour bar.
+const STOPS = [[0x30, 0x12, 0x3b], [0x46, 0x86, 0xfb], [0x1a, 0xe4, 0xb6], [0xa2, 0xfc, 0x3c], [0xfa, 0xba, 0x39], [0xe4, 0x46, 0x0a], [0x7a, 0x04, 0x03]];
+function colormap(t, out, o) {
+  const x = Math.min(Math.max(t, 0), 1) * (STOPS.length - 1);
+  const i = Math.min(Math.floor(x), STOPS.length - 2), f = x - i;
+  for (let k = 0; k < 3; ++k) out[o + k] = (STOPS[i][k] * (1 - f) + STOPS[i + 1][k] * f) / 255;
+}
+
+export class GarmentView {
+  constructor(canvas) {
+    // preserveDrawingBuffer: the browser tests read the canvas back.
+    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
+    this.renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
+    this.scene = new THREE.Scene();
+    this.scene.background = new THREE.Color(0xfbfbfa);
+    this.camera = new THREE.PerspectiveCamera(35, 1, 0.01, 100);
+    this.controls = new OrbitControls(this.camera, canvas);
+    this.controls.addEventListener('change', () => this.render());
+    this.scene.add(new THREE.HemisphereLight(0xffffff, 0x667788, 2.2));
+    const sun = new THREE.DirectionalLight(0xffffff, 1.2);
+    sun.position.set(1, 2, 1.5);
+    this.scene.add(sun);
+    this.garment = null;
+    this.body = null;
+    this.faces = null;
+    new ResizeObserver(() => this.resize()).observe(canvas);
+    this.resize();
+  }
+
+  resize() {
+    const c = this.renderer.domElement;
+    const w = c.clientWidth || 640, h = c.clientHeight || 420;
+    this.renderer.setSize(w, h, false);
+    this.camera.aspect = w / h;
+    this.camera.updateProjectionMatrix();
+    this.render();
+  }
+
+  render() { this.renderer.render(this.scene, this.camera); }
+
+  clear() {
+    for (const m of [this.garment, this.body]) if (m) { this.scene.remove(m); m.geometry.dispose(); }
+    this.garment = this.body = this.faces = null;
+    this.render();
+  }
+
+  // faces: Uint32Array (F x 3); body: { vertices: Float32Array, faces: Uint32Array } or null.
+  setMeshes(faces, body) {
+    this.clear();
+    this.faces = faces;
+    const nf = faces.length / 3;
+    const g = new THREE.BufferGeometry();
+    // One vertex per face corner, so each face has its own colour.
+    g.setAttribute('position', new THREE.BufferAttribute(new Float32Array(nf * 9), 3));
+    g.setAttribute('color', new THREE.BufferAttribute(new Float32Array(nf * 9).fill(0.8), 3));
+    this.garment = new THREE.Mesh(g, new THREE.MeshStandardMaterial({ vertexColors: true, side: THREE.DoubleSide, roughness: 0.8, flatShading: true }));
+    this.scene.add(this.garment);
+    if (body) {
+      const b = new THREE.BufferGeometry();
+      this.bodyRest = body.vertices.slice();
+      b.setAttribute('position', new THREE.BufferAttribute(body.vertices, 3));
+      b.setIndex(new THREE.BufferAttribute(body.faces, 1));
+      b.computeVertexNormals();
+      this.body = new THREE.Mesh(b, new THREE.MeshStandardMaterial({ color: 0xd9b38c, transparent: true, opacity: 0.3, depthWrite: false, roughness: 0.9 }));
+      this.scene.add(this.body);
+    }
+    this.framed = false;
+  }
+
+  // The body's vertices in another pose (same faces); null: the pose it was set with.
+  setBodyPose(vertices) {
+    if (!this.body) return;
+    const p = this.body.geometry.attributes.position;
+    p.array.set(vertices || this.bodyRest);
+    p.needsUpdate = true;
+    this.body.geometry.computeVertexNormals();
+  }
+
+  showBody(on) { if (this.body) { this.body.visible = on; this.render(); } }
+
+  // x: Float32Array (V x 3); values per face: design bits (Uint8Array) or energies (Float32Array, with max).
+  update(x, mode, values, max) {
+    if (!this.garment) return;
+    const f = this.faces, nf = f.length / 3;
+    const pos = this.garment.geometry.attributes.position, col = this.garment.geometry.attributes.color;
+    const p = pos.array, c = col.array;
+    for (let t = 0; t < nf; ++t)
+      for (let k = 0; k < 3; ++k) {
+        const v = f[3 * t + k], o = 9 * t + 3 * k;
+        p[o] = x[3 * v]; p[o + 1] = x[3 * v + 1]; p[o + 2] = x[3 * v + 2];
+      }
+    for (let t = 0; t < nf; ++t) {
+      const o = 9 * t;
+      if (mode === 'energy') colormap(max > 0 ? values[t] / max : 0, c, o);
+      else { const r = values[t] ? [0.12, 0.16, 0.3] : [0.86, 0.87, 0.9]; c[o] = r[0]; c[o + 1] = r[1]; c[o + 2] = r[2]; }
+      for (let k = 1; k < 3; ++k) { c[o + 3 * k] = c[o]; c[o + 3 * k + 1] = c[o + 1]; c[o + 3 * k + 2] = c[o + 2]; }
+    }
+    pos.needsUpdate = true;
+    col.needsUpdate = true;
+    this.garment.geometry.computeVertexNormals();
+    this.garment.geometry.computeBoundingSphere();
+    if (!this.framed) this.frame();
+    this.render();
+  }
+
+  frame() {
+    const s = this.garment.geometry.boundingSphere;
+    if (!s || !isFinite(s.radius) || s.radius === 0) return;
+    this.controls.target.copy(s.center);
+    const d = s.radius / Math.sin((this.camera.fov * Math.PI) / 360) * 1.1;
+    // Look across the garment's thinnest extent (a sleeve from the side, a shirt from the front).
+    this.garment.geometry.computeBoundingBox();
+    const size = this.garment.geometry.boundingBox.getSize(new THREE.Vector3());
+    const axis = size.x <= size.y && size.x <= size.z ? new THREE.Vector3(1, 0, 0) : size.y <= size.z ? new THREE.Vector3(0, 1, 0) : new THREE.Vector3(0, 0, 1);
+    const dir = axis.clone().add(new THREE.Vector3(0.2, 0.3, 0.25)).normalize();
+    this.camera.position.copy(s.center).add(dir.multiplyScalar(d));
+    this.camera.near = d / 100;
+    this.camera.far = d * 100;
+    this.camera.updateProjectionMatrix();
+    this.controls.update();
+    this.framed = true;
+  }
+}

@@ -1,0 +1,538 @@
+#include "server/http_gateway.h"
+
+#include <google/protobuf/util/json_util.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "core/mesh/mesh_io.h"
+#include "proto/job_spec.h"
+#include "proto/records.h"
+// After Eigen (through the headers above): a macro of the socket headers it pulls in breaks Eigen's.
+#include <httplib.h>
+
+namespace kgd::server {
+namespace {
+
+namespace pbu = google::protobuf::util;
+using Clock = std::chrono::steady_clock;
+
+int HttpStatusOf(ServiceCode code) {
+  switch (code) {
+    case ServiceCode::kOk: return 200;
+    case ServiceCode::kCancelled: return 499;
+    case ServiceCode::kInvalidArgument: return 400;
+    case ServiceCode::kNotFound: return 404;
+    case ServiceCode::kPermissionDenied: return 403;
+    case ServiceCode::kResourceExhausted: return 429;
+    case ServiceCode::kFailedPrecondition: return 400;
+    case ServiceCode::kInternal: return 500;
+    case ServiceCode::kUnavailable: return 503;
+    case ServiceCode::kUnauthenticated: return 401;
+  }
+  return 500;
+}
+
+std::string JsonEscape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\n': out += "\\n"; break;
+      case '\r': out += "\\r"; break;
+      case '\t': out += "\\t"; break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20) {
+          char buf[8];
+          std::snprintf(buf, sizeof buf, "\\u%04x", c);
+          out += buf;
+        } else {
+          out += c;
+        }
+    }
+  }
+  return out;
+}
+
+void SetError(httplib::Response& res, int http_status, ServiceCode code, const std::string& message) {
+  res.status = http_status;
+  res.set_content("{\"error\": {\"code\": " + std::to_string(http_status) + ", \"status\": \"" + ServiceCodeName(code) +
+                      "\", \"message\": \"" + JsonEscape(message) + "\"}}\n",
+                  "application/json");
+}
+
+void SetError(httplib::Response& res, const ServiceStatus& st) { SetError(res, HttpStatusOf(st.code), st.code, st.message); }
+
+std::string ToJson(const google::protobuf::Message& m) {
+  pbu::JsonPrintOptions o;
+  o.always_print_primitive_fields = true;
+  std::string out;
+  (void)pbu::MessageToJsonString(m, &out, o);  // only fails on invalid messages, which we never build
+  return out;
+}
+
+void SetMessage(httplib::Response& res, const google::protobuf::Message& m) { res.set_content(ToJson(m) + "\n", "application/json"); }
+
+// Parses `text` into `m`; errors name `what` and the parser's complaint.
+ServiceStatus FromJson(const std::string& text, const std::string& what, google::protobuf::Message* m) {
+  pbu::JsonParseOptions o;
+  o.ignore_unknown_fields = false;
+  const auto st = pbu::JsonStringToMessage(text, m, o);
+  if (st.ok()) return ServiceStatus::Ok();
+  return {ServiceCode::kInvalidArgument, what + " is not a valid " + m->GetDescriptor()->full_name() + " in JSON: " + std::string(st.message())};
+}
+
+// A non-negative (or -1) integer path or query value; errors name it.
+bool ParseInt(const std::string& text, long long lo, long long* out) {
+  if (text.empty() || text.size() > 18) return false;
+  char* end = nullptr;
+  const long long v = std::strtoll(text.c_str(), &end, 10);
+  if (end != text.c_str() + text.size() || v < lo) return false;
+  *out = v;
+  return true;
+}
+
+template <typename T>
+std::string LittleEndianBytes(const std::vector<T>& values) {
+  static_assert(std::endian::native == std::endian::little, "binary arrays are sent in host order");
+  return std::string(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
+}
+
+// Strain energy per rest area (J/m^2) of each face as little-endian float32: the energy density
+// (J/m^3) times the thickness of the face's material.
+template <typename Field>
+void SetEnergyPerArea(httplib::Response& res, const v1::Garment& g, const std::string& design, const Field& energy_density_Pa) {
+  const int nf = energy_density_Pa.size();
+  if (g.cloth_thickness_m() <= 0 || g.reinforced_thickness_m() <= 0)
+    return SetError(res, 400, ServiceCode::kFailedPrecondition,
+                    "the job's design file does not store the material thicknesses (written by an older kgd): energy per area is unknown");
+  if (static_cast<int>(design.size()) != nf)
+    return SetError(res, 500, ServiceCode::kInternal, std::to_string(design.size()) + " design values for " + std::to_string(nf) + " faces");
+  std::vector<float> e(nf);
+  for (int f = 0; f < nf; ++f) e[f] = static_cast<float>(energy_density_Pa[f] * (design[f] ? g.reinforced_thickness_m() : g.cloth_thickness_m()));
+  res.set_content(LittleEndianBytes(e), "application/octet-stream");
+}
+
+}  // namespace
+
+struct HttpGateway::Impl {
+  JobService* service = nullptr;
+  HttpOptions options;
+  httplib::Server http;
+  std::thread listener;
+  std::atomic<bool> stopping{false};
+  int port = 0;
+  std::string host;
+
+  // Path parameters: job id and iteration (-1: the last).
+  bool JobId(const httplib::Request& req, httplib::Response& res, int64_t* id) {
+    long long v = 0;
+    if (!ParseInt(req.matches[1], 1, &v)) {
+      SetError(res, 400, ServiceCode::kInvalidArgument, "job id '" + std::string(req.matches[1]) + "' is not a positive integer");
+      return false;
+    }
+    *id = v;
+    return true;
+  }
+
+  bool Iteration(const httplib::Request& req, httplib::Response& res, v1::GetIterationResponse* out, bool with_garment) {
+    int64_t id = 0;
+    if (!JobId(req, res, &id)) return false;
+    long long n = 0;
+    if (!ParseInt(req.matches[2], -1, &n) || n > 1 << 30) {
+      SetError(res, 400, ServiceCode::kInvalidArgument, "iteration '" + std::string(req.matches[2]) + "' is not an integer >= -1");
+      return false;
+    }
+    v1::GetIterationRequest r;
+    r.set_id(id);
+    r.set_iteration(static_cast<int>(n));
+    r.set_with_garment(with_garment);
+    if (ServiceStatus st = service->GetIteration(r, out); !st.ok()) {
+      SetError(res, st);
+      return false;
+    }
+    return true;
+  }
+
+  // The garment of a job (from its first stored iteration's response).
+  bool Garment(const httplib::Request& req, httplib::Response& res, v1::Garment* out) {
+    int64_t id = 0;
+    if (!JobId(req, res, &id)) return false;
+    v1::GetIterationRequest r;
+    r.set_id(id);
+    r.set_iteration(0);
+    r.set_with_garment(true);
+    v1::GetIterationResponse resp;
+    if (ServiceStatus st = service->GetIteration(r, &resp); !st.ok()) {
+      if (st.code == ServiceCode::kNotFound && st.message.find("is not stored") != std::string::npos)
+        st.message = "job " + std::to_string(id) + " has no garment yet (it has no iteration; watch it until the first arrives)";
+      SetError(res, st);
+      return false;
+    }
+    *out = std::move(*resp.mutable_garment());
+    return true;
+  }
+
+  bool Evaluation(const httplib::Request& req, httplib::Response& res, v1::DesignEvaluation* out) {
+    int64_t id = 0;
+    if (!JobId(req, res, &id)) return false;
+    if (ServiceStatus st = service->GetEvaluation(id, out); !st.ok()) {
+      SetError(res, st);
+      return false;
+    }
+    return true;
+  }
+
+  // The iteration an evaluation is of, with the garment (for the thicknesses).
+  bool EvaluatedIteration(const httplib::Request& req, httplib::Response& res, const v1::DesignEvaluation& e, v1::GetIterationResponse* out) {
+    v1::GetIterationRequest r;
+    r.set_id(std::atoll(std::string(req.matches[1]).c_str()));
+    r.set_iteration(e.iteration());
+    r.set_with_garment(true);
+    if (ServiceStatus st = service->GetIteration(r, out); !st.ok()) {
+      SetError(res, st);
+      return false;
+    }
+    return true;
+  }
+
+  void Routes();
+  void Watch(const httplib::Request& req, httplib::Response& res);
+  void CreateJob(const httplib::Request& req, httplib::Response& res);
+};
+
+void HttpGateway::Impl::Routes() {
+  http.Get("/v1/scenes", [this](const httplib::Request&, httplib::Response& res) {
+    v1::ListScenesResponse out;
+    if (ServiceStatus st = service->ListScenes(&out); !st.ok()) return SetError(res, st);
+    SetMessage(res, out);
+  });
+
+  http.Get("/v1/jobs", [this](const httplib::Request& req, httplib::Response& res) {
+    v1::ListJobsRequest r;
+    if (req.has_param("pageSize")) {
+      long long n = 0;
+      if (!ParseInt(req.get_param_value("pageSize"), 0, &n) || n > 1000)
+        return SetError(res, 400, ServiceCode::kInvalidArgument, "pageSize '" + req.get_param_value("pageSize") + "' is not in 0..1000");
+      r.set_page_size(static_cast<int>(n));
+    }
+    r.set_page_token(req.get_param_value("pageToken"));
+    if (req.has_param("state")) {
+      v1::JobState state;
+      if (!v1::JobState_Parse(req.get_param_value("state"), &state) || state == v1::JOB_STATE_UNSPECIFIED)
+        return SetError(res, 400, ServiceCode::kInvalidArgument,
+                        "state '" + req.get_param_value("state") + "' is not one of QUEUED, RUNNING, SUCCEEDED, FAILED, CANCELLED");
+      r.set_state_filter(state);
+    }
+    v1::ListJobsResponse out;
+    if (ServiceStatus st = service->ListJobs(r, &out); !st.ok()) return SetError(res, st);
+    SetMessage(res, out);
+  });
+
+  http.Post("/v1/jobs", [this](const httplib::Request& req, httplib::Response& res) { CreateJob(req, res); });
+
+  http.Get(R"(/v1/jobs/([^/:]+))", [this](const httplib::Request& req, httplib::Response& res) {
+    int64_t id = 0;
+    if (!JobId(req, res, &id)) return;
+    v1::Job job;
+    if (ServiceStatus st = service->GetJob(id, &job); !st.ok()) return SetError(res, st);
+    SetMessage(res, job);
+  });
+
+  http.Post(R"(/v1/jobs/([^/:]+):cancel)", [this](const httplib::Request& req, httplib::Response& res) {
+    int64_t id = 0;
+    if (!JobId(req, res, &id)) return;
+    v1::Job job;
+    if (ServiceStatus st = service->CancelJob(id, &job); !st.ok()) return SetError(res, st);
+    SetMessage(res, job);
+  });
+
+  http.Get(R"(/v1/jobs/([^/:]+):watch)", [this](const httplib::Request& req, httplib::Response& res) { Watch(req, res); });
+
+  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
+    v1::GetIterationResponse out;
+    if (Iteration(req, res, &out, req.get_param_value("withGarment") == "true")) SetMessage(res, out);
+  });
+
+  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/positions\.f32)", [this](const httplib::Request& req, httplib::Response& res) {
+    v1::GetIterationResponse out;
+    if (!Iteration(req, res, &out, false)) return;
+    const std::vector<float> x(out.record().positions().begin(), out.record().positions().end());
+    res.set_content(LittleEndianBytes(x), "application/octet-stream");
+  });
+
+  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/energy\.f32)", [this](const httplib::Request& req, httplib::Response& res) {
+    v1::GetIterationResponse out;
+    if (Iteration(req, res, &out, true)) SetEnergyPerArea(res, out.garment(), out.record().design(), out.record().energy_density_pa());
+  });
+
+  // The finished design over the motion and beside the baselines: figures as JSON, arrays as binary.
+  http.Get(R"(/v1/jobs/([^/:]+)/evaluation)", [this](const httplib::Request& req, httplib::Response& res) {
+    v1::DesignEvaluation e;
+    if (!Evaluation(req, res, &e)) return;
+    for (v1::MotionFrame& f : *e.mutable_frames()) f.clear_positions(), f.clear_body_vertices(), f.clear_energy_density_pa();
+    for (v1::BaselineRecord& b : *e.mutable_baselines()) b.clear_positions(), b.clear_energy_density_pa(), b.clear_design();
+    SetMessage(res, e);
+  });
+  http.Get(R"(/v1/jobs/([^/:]+)/evaluation/frames/([^/]+)/(positions\.f32|body\.f32|energy\.f32))",
+           [this](const httplib::Request& req, httplib::Response& res) {
+             v1::DesignEvaluation e;
+             if (!Evaluation(req, res, &e)) return;
+             long long k = 0;
+             if (!ParseInt(req.matches[2], 1, &k) || k > e.frames_size())
+               return SetError(res, 404, ServiceCode::kNotFound,
+                               "frame '" + std::string(req.matches[2]) + "' is not one of 1.." + std::to_string(e.frames_size()));
+             const v1::MotionFrame& f = e.frames(static_cast<int>(k - 1));
+             if (req.matches[3] == "positions.f32")
+               return res.set_content(LittleEndianBytes(std::vector<float>(f.positions().begin(), f.positions().end())), "application/octet-stream");
+             if (req.matches[3] == "body.f32") {
+               if (f.body_vertices_size() == 0) return SetError(res, 404, ServiceCode::kNotFound, "the evaluation has no body");
+               return res.set_content(LittleEndianBytes(std::vector<float>(f.body_vertices().begin(), f.body_vertices().end())),
+                                      "application/octet-stream");
+             }
+             v1::GetIterationResponse it;
+             if (EvaluatedIteration(req, res, e, &it)) SetEnergyPerArea(res, it.garment(), it.record().design(), f.energy_density_pa());
+           });
+  http.Get(R"(/v1/jobs/([^/:]+)/evaluation/baselines/([^/]+)/(positions\.f32|design\.u8|energy\.f32))",
+           [this](const httplib::Request& req, httplib::Response& res) {
+             v1::DesignEvaluation e;
+             if (!Evaluation(req, res, &e)) return;
+             const v1::BaselineRecord* b = nullptr;
+             for (const v1::BaselineRecord& r : e.baselines())
+               if (r.name() == req.matches[2]) b = &r;
+             if (!b) return SetError(res, 404, ServiceCode::kNotFound, "the evaluation has no baseline '" + std::string(req.matches[2]) + "'");
+             if (req.matches[3] == "positions.f32")
+               return res.set_content(LittleEndianBytes(std::vector<float>(b->positions().begin(), b->positions().end())), "application/octet-stream");
+             if (req.matches[3] == "design.u8") return res.set_content(b->design(), "application/octet-stream");
+             v1::GetIterationResponse it;
+             if (EvaluatedIteration(req, res, e, &it)) SetEnergyPerArea(res, it.garment(), b->design(), b->energy_density_pa());
+           });
+
+  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/design\.u8)", [this](const httplib::Request& req, httplib::Response& res) {
+    v1::GetIterationResponse out;
+    if (Iteration(req, res, &out, false)) res.set_content(out.record().design(), "application/octet-stream");
+  });
+
+  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/design\.ply)", [this](const httplib::Request& req, httplib::Response& res) {
+    v1::GetIterationResponse out;
+    if (!Iteration(req, res, &out, true)) return;
+    DesignFileHeader h;
+    if (Status st = GarmentFromProto(out.garment(), &h); !st.ok()) return SetError(res, 500, ServiceCode::kInternal, st.message());
+    Result<BesoIteration> it = RecordFromProto(out.record(), static_cast<int>(h.garment.faces.rows()), static_cast<int>(h.garment.vertices.rows()));
+    if (!it.ok()) return SetError(res, 500, ServiceCode::kInternal, it.message());
+    Eigen::VectorXd design(it->design.size());
+    for (size_t f = 0; f < it->design.size(); ++f) design[f] = it->design[f];
+    const std::string name = "job-" + std::string(req.matches[1]) + "-iteration-" + std::to_string(it->iteration) + ".ply";
+    std::ostringstream ply;
+    if (Status st = WritePly(ply, name, it->positions, h.garment.faces, {{"design", design, true}, {"energy_density_Pa", it->energy_density_Pa, false}});
+        !st.ok())
+      return SetError(res, 500, ServiceCode::kInternal, st.message());
+    res.set_header("Content-Disposition", "attachment; filename=\"" + name + "\"");
+    res.set_content(ply.str(), "application/octet-stream");
+  });
+
+  http.Get(R"(/v1/jobs/([^/:]+)/garment/faces\.u32)", [this](const httplib::Request& req, httplib::Response& res) {
+    v1::Garment g;
+    if (!Garment(req, res, &g)) return;
+    res.set_content(LittleEndianBytes(std::vector<uint32_t>(g.faces().begin(), g.faces().end())), "application/octet-stream");
+  });
+  http.Get(R"(/v1/jobs/([^/:]+)/garment/rest\.f32)", [this](const httplib::Request& req, httplib::Response& res) {
+    v1::Garment g;
+    if (!Garment(req, res, &g)) return;
+    res.set_content(LittleEndianBytes(std::vector<float>(g.rest_vertices().begin(), g.rest_vertices().end())), "application/octet-stream");
+  });
+  http.Get(R"(/v1/jobs/([^/:]+)/body/(vertices\.f32|faces\.u32))", [this](const httplib::Request& req, httplib::Response& res) {
+    v1::Garment g;
+    if (!Garment(req, res, &g)) return;
+    if (g.body_faces_size() == 0)
+      return SetError(res, 404, ServiceCode::kNotFound, "job " + std::string(req.matches[1]) + " has no body (a flat scene, or a design file of an older kgd)");
+    if (req.matches[2] == "vertices.f32")
+      res.set_content(LittleEndianBytes(std::vector<float>(g.body_vertices().begin(), g.body_vertices().end())), "application/octet-stream");
+    else
+      res.set_content(LittleEndianBytes(std::vector<uint32_t>(g.body_faces().begin(), g.body_faces().end())), "application/octet-stream");
+  });
+
+  http.Get(R"(/v1/jobs/([^/:]+)/design-file)", [this](const httplib::Request& req, httplib::Response& res) {
+    int64_t id = 0;
+    if (!JobId(req, res, &id)) return;
+    v1::Job job;
+    if (ServiceStatus st = service->GetJob(id, &job); !st.ok()) return SetError(res, st);
+    if (job.state() == v1::QUEUED || job.state() == v1::RUNNING)
+      return SetError(res, 400, ServiceCode::kFailedPrecondition,
+                      "job " + std::to_string(id) + " is " + v1::JobState_Name(job.state()) +
+                          ": its design file is still being written; download it once the job has ended (an iteration's PLY is ready now)");
+    std::ifstream in(job.data_file(), std::ios::binary);
+    if (job.data_file().empty() || !in)
+      return SetError(res, 404, ServiceCode::kNotFound, "job " + std::to_string(id) + " has no design file (it stored no iteration)");
+    std::ostringstream bytes;
+    bytes << in.rdbuf();
+    res.set_header("Content-Disposition", "attachment; filename=\"job-" + std::to_string(id) + ".h5\"");
+    res.set_content(bytes.str(), "application/x-hdf5");
+  });
+}
+
+void HttpGateway::Impl::CreateJob(const httplib::Request& req, httplib::Response& res) {
+  const std::string type = req.get_header_value("Content-Type");
+  v1::CreateJobRequest r;
+  if (type.rfind("application/json", 0) == 0) {
+    if (ServiceStatus st = FromJson(req.body, "the request body", r.mutable_spec()); !st.ok()) return SetError(res, st);
+  } else if (req.is_multipart_form_data()) {
+    if (req.has_file("spec"))
+      if (ServiceStatus st = FromJson(req.get_file_value("spec").content, "part 'spec'", r.mutable_spec()); !st.ok()) return SetError(res, st);
+    if (!req.has_file("scene"))
+      return SetError(res, 400, ServiceCode::kInvalidArgument, "multipart upload: the part 'scene' (the scene file) is missing");
+    const httplib::MultipartFormData scene_part = req.get_file_value("scene");
+    const std::string source = "part 'scene'" + (scene_part.filename.empty() ? "" : " (" + scene_part.filename + ")");
+    Result<v1::Scene> scene = ParseSceneJson(scene_part.content, source);
+    if (!scene.ok()) return SetError(res, 400, ServiceCode::kInvalidArgument, scene.message());
+    v1::SceneFiles* files = r.mutable_spec()->mutable_scene_files();
+    *files->mutable_scene() = *scene;
+    for (const auto& [name, part] : req.files) {
+      if (name == "scene" || name == "spec") continue;
+      const std::string file = part.filename.empty() ? name : part.filename;
+      (*files->mutable_files())[file] = part.content;
+    }
+  } else {
+    return SetError(res, 415, ServiceCode::kInvalidArgument,
+                    "POST /v1/jobs takes application/json (a JobSpec) or multipart/form-data (scene and files), not '" + type + "'");
+  }
+  v1::Job job;
+  if (ServiceStatus st = service->CreateJob(r, &job); !st.ok()) return SetError(res, st);
+  res.status = 200;
+  SetMessage(res, job);
+}
+
+void HttpGateway::Impl::Watch(const httplib::Request& req, httplib::Response& res) {
+  int64_t id = 0;
+  if (!JobId(req, res, &id)) return;
+  v1::WatchJobRequest r;
+  r.set_id(id);
+  long long from = 0;
+  const std::string last_event = req.get_header_value("Last-Event-ID");
+  if (!last_event.empty()) {
+    if (!ParseInt(last_event, 0, &from)) return SetError(res, 400, ServiceCode::kInvalidArgument, "Last-Event-ID '" + last_event + "' is not an iteration");
+    ++from;
+  } else if (req.has_param("fromIteration")) {
+    if (!ParseInt(req.get_param_value("fromIteration"), 0, &from))
+      return SetError(res, 400, ServiceCode::kInvalidArgument, "fromIteration '" + req.get_param_value("fromIteration") + "' is not an integer >= 0");
+  }
+  r.set_from_iteration(static_cast<int>(std::min<long long>(from, 1 << 30)));
+  const bool metrics_only = req.get_param_value("view") == "metrics";
+  // An unknown job is an error response, not an empty stream.
+  v1::Job job;
+  if (ServiceStatus st = service->GetJob(id, &job); !st.ok()) return SetError(res, st);
+
+  res.set_header("Cache-Control", "no-cache");
+  res.set_header("X-Accel-Buffering", "no");
+  res.set_chunked_content_provider("text/event-stream", [this, r, metrics_only](size_t, httplib::DataSink& sink) {
+    Clock::time_point last_write = Clock::now();
+    bool gone = false;
+    auto send = [&](const std::string& text) {
+      last_write = Clock::now();
+      if (!sink.write(text.data(), text.size())) gone = true;
+      return !gone;
+    };
+    send("retry: 2000\n\n");
+    service->WatchJob(
+        r,
+        [&](const v1::WatchJobEvent& ev) {
+          if (ev.has_job()) return send("event: job\ndata: " + ToJson(ev.job()) + "\n\n");
+          v1::IterationRecord rec = ev.iteration();
+          if (metrics_only) rec.clear_design();
+          return send("id: " + std::to_string(rec.metrics().iteration()) + "\nevent: iteration\ndata: " + ToJson(rec) + "\n\n");
+        },
+        [&] {
+          if (stopping || gone) return true;
+          // A comment now and then finds a client that has gone while the job is idle.
+          if (Clock::now() - last_write > std::chrono::duration<double>(options.keepalive_s)) send(": keepalive\n\n");
+          return gone;
+        });
+    sink.done();
+    return true;
+  });
+}
+
+Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService* service, const HttpOptions& options) {
+  const size_t colon = options.address.rfind(':');
+  long long port = 0;
+  if (colon == std::string::npos || !ParseInt(options.address.substr(colon + 1), 0, &port) || port > 65535)
+    return Status::Error("--http " + options.address + ": expected HOST:PORT");
+  if (!options.web_dir.empty() && !std::filesystem::is_regular_file(std::filesystem::path(options.web_dir) / "index.html"))
+    return Status::Error("web page folder " + options.web_dir + " has no index.html");
+  auto g = std::unique_ptr<HttpGateway>(new HttpGateway);
+  g->impl_ = std::make_unique<Impl>();
+  Impl& m = *g->impl_;
+  m.service = service;
+  m.options = options;
+  m.host = options.address.substr(0, colon);
+  httplib::Server& http = m.http;
+  // Each watch holds a thread for its whole life.
+  http.new_task_queue = [] { return new httplib::ThreadPool(64); };
+  http.set_payload_max_length(options.max_upload_bytes);
+  http.set_keep_alive_max_count(100);
+  for (const auto& [ext, type] : std::initializer_list<std::pair<const char*, const char*>>{
+           {"js", "text/javascript"}, {"mjs", "text/javascript"}, {"css", "text/css"}, {"html", "text/html"},
+           {"json", "application/json"}, {"svg", "image/svg+xml"}, {"map", "application/json"}})
+    http.set_file_extension_and_mimetype_mapping(ext, type);
+  if (!options.web_dir.empty()) {
+    http.set_mount_point("/", options.web_dir);
+    // The page's libraries, installed by npm from client/web/package-lock.json.
+    http.set_mount_point("/vendor", (std::filesystem::path(options.web_dir) / "node_modules").string());
+  }
+  http.set_error_handler(httplib::Server::HandlerWithResponse([](const httplib::Request& req, httplib::Response& res) {
+    if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    if (res.status == 413)
+      SetError(res, 413, ServiceCode::kResourceExhausted, "the request body is larger than the server accepts (--max-upload-mb)");
+    else if (res.status == 404)
+      SetError(res, 404, ServiceCode::kNotFound, "no such resource: " + req.method + " " + req.path);
+    else if (res.status == 405 || res.status == 400)
+      SetError(res, res.status, ServiceCode::kInvalidArgument, "bad request: " + req.method + " " + req.path);
+    else
+      SetError(res, res.status, ServiceCode::kInternal, "HTTP " + std::to_string(res.status) + " on " + req.method + " " + req.path);
+    return httplib::Server::HandlerResponse::Handled;
+  }));
+  http.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+    std::string what = "unknown error";
+    try {
+      std::rethrow_exception(ep);
+    } catch (const std::exception& e) {
+      what = e.what();
+    } catch (...) {
+    }
+    SetError(res, 500, ServiceCode::kInternal, what);
+  });
+  m.Routes();
+  if (port == 0) {
+    m.port = http.bind_to_any_port(m.host);
+    if (m.port <= 0) return Status::Error("--http " + options.address + ": cannot bind a port on " + m.host);
+  } else {
+    if (!http.bind_to_port(m.host, static_cast<int>(port)))
+      return Status::Error("--http " + options.address + ": cannot bind (in use, or not an address of this machine?)");
+    m.port = static_cast<int>(port);
+  }
+  m.listener = std::thread([&m] { m.http.listen_after_bind(); });
+  return g;
+}
+
+HttpGateway::~HttpGateway() { Stop(); }
+
+int HttpGateway::port() const { return impl_->port; }
+
+std::string HttpGateway::url() const {
+  const std::string host = impl_->host == "0.0.0.0" || impl_->host.empty() ? "127.0.0.1" : impl_->host;
+  return "http://" + host + ":" + std::to_string(impl_->port) + "/";
+}
+
+void HttpGateway::Stop() {
+  if (!impl_ || impl_->stopping.exchange(true)) return;
+  impl_->http.stop();
+  if (impl_->listener.joinable()) impl_->listener.join();
+}
+
+}  // namespace kgd::server

@@ -1,0 +1,67 @@
+// The HTTP door of the design service: an HTTP/JSON API over the same job service as gRPC
+// (server/job_service.h), and the web page (client/web/). Bodies are kgd.v1 messages in their
+// canonical protobuf JSON form (lowerCamelCase names, int64 as strings); errors are
+//   {"error": {"code": 404, "status": "NOT_FOUND", "message": "job 7 does not exist"}}
+// with the gRPC status name. Resources (Google API style):
+//
+//   GET  /v1/scenes                               ListScenesResponse
+//   GET  /v1/jobs?pageSize=&pageToken=&state=     ListJobsResponse (state: QUEUED, RUNNING, ...)
+//   POST /v1/jobs                                 Job; body: a JobSpec (application/json), or
+//                                                 multipart/form-data with a part "scene" (the scene
+//                                                 file), one part per file it names (by file name),
+//                                                 and an optional part "spec" (a JobSpec: optimizer,
+//                                                 body, label)
+//   GET  /v1/jobs/{id}                            Job
+//   POST /v1/jobs/{id}:cancel                     Job
+//   GET  /v1/jobs/{id}:watch?fromIteration=&view=metrics
+//                                                 Server-Sent Events: "job" events (a Job) and
+//                                                 "iteration" events (an IterationRecord; its id is
+//                                                 the iteration, so a reconnect with Last-Event-ID
+//                                                 continues after it; view=metrics: no design)
+//   GET  /v1/jobs/{id}/iterations/{n}?withGarment=true   GetIterationResponse (n = -1: the last)
+//   GET  /v1/jobs/{id}/iterations/{n}/positions.f32      V x 3 little-endian float32 (m)
+//   GET  /v1/jobs/{id}/iterations/{n}/energy.f32         F float32: strain energy per rest area (J/m^2)
+//   GET  /v1/jobs/{id}/iterations/{n}/design.u8          F bytes, 1 = reinforced
+//   GET  /v1/jobs/{id}/iterations/{n}/design.ply         the iteration as binary PLY (download)
+//   GET  /v1/jobs/{id}/garment/faces.u32                 F x 3 little-endian uint32
+//   GET  /v1/jobs/{id}/garment/rest.f32                  V x 3 float32, the rest shape (m)
+//   GET  /v1/jobs/{id}/body/vertices.f32, faces.u32      the body in the deformed pose (404: none)
+//   GET  /v1/jobs/{id}/design-file                       the job's HDF5 design file, once it has ended
+//   GET  /                                               the web page (static files of web_dir)
+//
+// The handlers only translate; they never simulate.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "core/util/status.h"
+#include "server/job_service.h"
+
+namespace kgd::server {
+
+struct HttpOptions {
+  std::string address = "127.0.0.1:7448";  // host:port; port 0 picks a free one
+  std::string web_dir;                     // the page's static files (client/web); empty: API only
+  size_t max_upload_bytes = 64 << 20;      // larger request bodies get 413 RESOURCE_EXHAUSTED
+  double keepalive_s = 10;                 // an SSE comment this often keeps idle watches alive
+};
+
+class HttpGateway {
+ public:
+  // Binds the address and starts serving `service` (which must outlive the gateway).
+  static Result<std::unique_ptr<HttpGateway>> Start(JobService* service, const HttpOptions& options);
+  ~HttpGateway();  // Stop()
+
+  int port() const;
+  std::string url() const;  // http://127.0.0.1:PORT/
+  // Ends open watches and stops serving; idempotent.
+  void Stop();
+
+ private:
+  HttpGateway() = default;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace kgd::server

@@ -1,0 +1,429 @@
+// The HTTP/JSON API (server/http_gateway.h) as it runs for real: a kgd-server process with --http and a
+// kgd-worker process on loopback, driven by an HTTP client. Create, watch by Server-Sent Events with a
+// dropped connection and a Last-Event-ID resume, cancel, fetch iterations and their binary arrays,
+// upload a scene file, and bad requests each answered with its status and message.
+#include <google/protobuf/util/json_util.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <thread>
+
+#include "kgd/v1/kgd.pb.h"
+#include "tests/child_process.h"
+#include "tests/kgd_cli.h"
+// After the Eigen-using headers above: see server/http_gateway.cpp.
+#include <httplib.h>
+
+namespace kgd {
+namespace {
+namespace fs = std::filesystem;
+using test_support::FreePort;
+using test_support::Process;
+
+bool WaitFor(const std::function<bool()>& done, double timeout_s) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (std::chrono::steady_clock::now() < end) {
+    if (done()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return done();
+}
+
+template <typename M>
+M Parse(const std::string& json) {
+  M m;
+  const auto st = google::protobuf::util::JsonStringToMessage(json, &m);
+  EXPECT_TRUE(st.ok()) << st.message() << "\n" << json;
+  return m;
+}
+
+// A kgd-server with its HTTP door and one kgd-worker; shared by the tests (one per process).
+class HttpService {
+ public:
+  HttpService() {
+    // One service per test process (ctest runs each test in its own, in parallel).
+    dir_ = (fs::temp_directory_path() / ("kgd_http_api_test_" + std::to_string(getpid()))).string();
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    const std::string grpc = "127.0.0.1:" + std::to_string(FreePort());
+    port_ = FreePort();
+    server_ = Process::Spawn({KGD_SERVER_BINARY, "--data", dir_ + "/data", "--listen", grpc, "--http", "127.0.0.1:" + std::to_string(port_),
+                              "--max-upload-mb", "1"},
+                             dir_ + "/server.log");
+    worker_ = Process::Spawn({KGD_WORKER_BINARY, "--server", grpc, "--name", "w0"}, dir_ + "/worker.log");
+    ok_ = WaitFor([&] { return Log().find("http on") != std::string::npos; }, 30);
+  }
+  ~HttpService() {
+    server_.Signal(SIGKILL);
+    worker_.Signal(SIGKILL);
+    server_.Wait();
+    worker_.Wait();
+    if (!::testing::UnitTest::GetInstance()->failed_test_count()) fs::remove_all(dir_);
+  }
+  bool ok() const { return ok_; }
+  std::string Log() const {
+    std::ifstream in(dir_ + "/server.log");
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }
+  httplib::Client Client() const {
+    httplib::Client c("127.0.0.1", port_);
+    c.set_read_timeout(60, 0);
+    return c;
+  }
+  int port() const { return port_; }
+  const std::string& dir() const { return dir_; }
+
+ private:
+  std::string dir_;
+  int port_ = 0;
+  bool ok_ = false;
+  Process server_, worker_;
+};
+
+// Destroyed at exit, which kills the server and the worker.
+HttpService& Service() {
+  static HttpService s;
+  return s;
+}
+
+class HttpApi : public ::testing::Test {
+ protected:
+  void SetUp() override { ASSERT_TRUE(Service().ok()) << Service().Log(); }
+};
+
+std::string SleeveJob(int iterations, const std::string& label) {
+  return R"({"builtinScene": "sleeve_on_limb", "optimizer": {"budget": 0.3, "maxIterations": )" + std::to_string(iterations) +
+         R"(}, "label": ")" + label + R"("})";
+}
+
+v1::Job Create(const std::string& spec_json) {
+  auto res = Service().Client().Post("/v1/jobs", spec_json, "application/json");
+  EXPECT_TRUE(res) << "no response";
+  if (!res) return {};
+  EXPECT_EQ(res->status, 200) << res->body;
+  return Parse<v1::Job>(res->body);
+}
+
+v1::Job Get(const std::string& id) {
+  auto res = Service().Client().Get("/v1/jobs/" + id);
+  return res && res->status == 200 ? Parse<v1::Job>(res->body) : v1::Job();
+}
+
+bool Ended(const std::string& id) {
+  const v1::JobState s = Get(id).state();
+  return s == v1::SUCCEEDED || s == v1::FAILED || s == v1::CANCELLED;
+}
+
+// One Server-Sent Event.
+struct Event {
+  std::string type, id, data;
+};
+
+// Reads the watch stream of job `id` until `stop` returns true for an event (or the stream ends);
+// sends Last-Event-ID when `last_event_id` is not empty.
+std::vector<Event> WatchEvents(const std::string& id, const std::string& last_event_id, const std::function<bool(const Event&)>& stop) {
+  std::vector<Event> events;
+  std::string buffer;
+  httplib::Headers headers;
+  if (!last_event_id.empty()) headers.emplace("Last-Event-ID", last_event_id);
+  bool stopped = false;
+  auto res = Service().Client().Get("/v1/jobs/" + id + ":watch?view=metrics", headers, [&](const char* data, size_t n) {
+    buffer.append(data, n);
+    for (size_t end; (end = buffer.find("\n\n")) != std::string::npos;) {
+      const std::string block = buffer.substr(0, end);
+      buffer.erase(0, end + 2);
+      Event ev;
+      std::istringstream lines(block);
+      for (std::string line; std::getline(lines, line);) {
+        if (line.rfind("event: ", 0) == 0) ev.type = line.substr(7);
+        if (line.rfind("id: ", 0) == 0) ev.id = line.substr(4);
+        if (line.rfind("data: ", 0) == 0) ev.data += line.substr(6);
+      }
+      if (ev.type.empty()) continue;  // retry and keep-alive comments
+      events.push_back(ev);
+      if (stop(ev)) {
+        stopped = true;
+        return false;  // drop the connection
+      }
+    }
+    return true;
+  });
+  if (!stopped) EXPECT_TRUE(res) << "watch stream failed";
+  return events;
+}
+
+TEST_F(HttpApi, ScenesListTheBuiltinScenesAndTheBodyMeasurements) {
+  auto res = Service().Client().Get("/v1/scenes");
+  ASSERT_TRUE(res);
+  ASSERT_EQ(res->status, 200) << res->body;
+  EXPECT_EQ(res->get_header_value("Content-Type"), "application/json");
+  const auto r = Parse<v1::ListScenesResponse>(res->body);
+  std::map<std::string, v1::BuiltinScene> by_name;
+  for (const auto& s : r.scenes()) by_name[s.name()] = s;
+  ASSERT_TRUE(by_name.count("arm_flexion"));
+  EXPECT_EQ(by_name["arm_flexion"].garment(), "sleeve_arm");
+  EXPECT_DOUBLE_EQ(by_name["arm_flexion"].budget(), 0.15);
+  EXPECT_EQ(by_name["arm_flexion"].frames(), 8);
+  EXPECT_TRUE(by_name["arm_flexion"].parametric_body());
+  EXPECT_GT(by_name["arm_flexion"].garment_faces(), 10000);
+  EXPECT_GT(by_name["arm_flexion"].garment_area_m2(), 0.04);
+  ASSERT_TRUE(by_name.count("pull_test_line"));
+  EXPECT_FALSE(by_name["pull_test_line"].parametric_body());
+  bool height = false;
+  for (const auto& m : r.body_measurements())
+    if (m.name() == "height_m") height = m.default_value() == 1.70 && m.min() < 1.70 && m.max() > 1.70;
+  EXPECT_TRUE(height);
+}
+
+TEST_F(HttpApi, AWatchDroppedMidJobResumesWithLastEventIdWithNoGapAndNoDuplicate) {
+  const v1::Job job = Create(SleeveJob(14, "sse"));
+  ASSERT_EQ(job.state(), v1::QUEUED);
+  const std::string id = std::to_string(job.id());
+  // First connection: drop it after iteration 4.
+  std::vector<Event> first = WatchEvents(id, "", [](const Event& e) { return e.type == "iteration" && e.id == "4"; });
+  ASSERT_FALSE(first.empty());
+  EXPECT_EQ(first.front().type, "job");
+  // Second: resume after the last id seen, to the job's end (the stream ends with it).
+  std::vector<Event> second = WatchEvents(id, "4", [](const Event&) { return false; });
+  std::vector<int> iterations;
+  for (const auto* part : {&first, &second})
+    for (const Event& e : *part)
+      if (e.type == "iteration") {
+        const auto rec = Parse<v1::IterationRecord>(e.data);
+        EXPECT_EQ(std::to_string(rec.metrics().iteration()), e.id);
+        EXPECT_TRUE(rec.design().empty()) << "view=metrics sends no design";
+        iterations.push_back(rec.metrics().iteration());
+      }
+  const v1::Job done = Get(id);
+  EXPECT_EQ(done.state(), v1::SUCCEEDED) << done.failure();
+  ASSERT_EQ(static_cast<int>(iterations.size()), done.iterations());
+  for (int k = 0; k < static_cast<int>(iterations.size()); ++k) EXPECT_EQ(iterations[k], k) << "a gap or a duplicate";
+  // The resumed stream's last job event says the job ended.
+  v1::Job last_job;
+  for (const Event& e : second)
+    if (e.type == "job") last_job = Parse<v1::Job>(e.data);
+  EXPECT_EQ(last_job.state(), v1::SUCCEEDED);
+}
+
+TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
+  const v1::Job job = Create(SleeveJob(6, "arrays"));
+  const std::string id = std::to_string(job.id());
+  ASSERT_TRUE(WaitFor([&] { return Ended(id); }, 300)) << Service().Log();
+  auto cli = Service().Client();
+  auto res = cli.Get("/v1/jobs/" + id + "/iterations/-1?withGarment=true");
+  ASSERT_TRUE(res);
+  ASSERT_EQ(res->status, 200) << res->body;
+  const auto it = Parse<v1::GetIterationResponse>(res->body);
+  const v1::IterationRecord& rec = it.record();
+  const v1::Garment& g = it.garment();
+  EXPECT_EQ(rec.metrics().iteration(), Get(id).iterations() - 1);
+  const int nv = g.rest_vertices_size() / 3, nf = g.faces_size() / 3;
+  ASSERT_GT(nf, 0);
+  ASSERT_GT(g.cloth_thickness_m(), 0);
+  ASSERT_GT(g.body_faces_size(), 0) << "the sleeve's scene has a body";
+  const std::string n = std::to_string(rec.metrics().iteration());
+
+  auto bytes = [&](const std::string& path) {
+    auto r = cli.Get("/v1/jobs/" + id + path);
+    EXPECT_TRUE(r && r->status == 200) << path << ": " << (r ? r->body : "no response");
+    if (r) EXPECT_EQ(r->get_header_value("Content-Type"), "application/octet-stream") << path;
+    return r ? r->body : std::string();
+  };
+  auto floats = [](const std::string& b) {
+    std::vector<float> v(b.size() / 4);
+    std::memcpy(v.data(), b.data(), v.size() * 4);
+    return v;
+  };
+  auto uints = [](const std::string& b) {
+    std::vector<uint32_t> v(b.size() / 4);
+    std::memcpy(v.data(), b.data(), v.size() * 4);
+    return v;
+  };
+  const std::vector<float> x = floats(bytes("/iterations/" + n + "/positions.f32"));
+  ASSERT_EQ(static_cast<int>(x.size()), 3 * nv) << "12 bytes per vertex: a 28k-vertex iteration is 336 KB";
+  for (int i = 0; i < 3 * nv; ++i) ASSERT_EQ(x[i], static_cast<float>(rec.positions(i))) << i;
+  const std::vector<uint32_t> faces = uints(bytes("/garment/faces.u32"));
+  ASSERT_EQ(static_cast<int>(faces.size()), 3 * nf);
+  for (int i = 0; i < 3 * nf; ++i) ASSERT_EQ(faces[i], static_cast<uint32_t>(g.faces(i)));
+  const std::vector<float> rest = floats(bytes("/garment/rest.f32"));
+  ASSERT_EQ(static_cast<int>(rest.size()), 3 * nv);
+  EXPECT_EQ(rest[3 * nv - 1], static_cast<float>(g.rest_vertices(3 * nv - 1)));
+  const std::string design = bytes("/iterations/" + n + "/design.u8");
+  EXPECT_EQ(design, rec.design());
+  const std::vector<float> energy = floats(bytes("/iterations/" + n + "/energy.f32"));
+  ASSERT_EQ(static_cast<int>(energy.size()), nf);
+  for (int f = 0; f < nf; ++f) {
+    const double t = rec.design()[f] ? g.reinforced_thickness_m() : g.cloth_thickness_m();
+    ASSERT_FLOAT_EQ(energy[f], static_cast<float>(rec.energy_density_pa(f) * t)) << f;
+  }
+  EXPECT_EQ(uints(bytes("/body/faces.u32")).size(), static_cast<size_t>(g.body_faces_size()));
+  EXPECT_EQ(floats(bytes("/body/vertices.f32")).size(), static_cast<size_t>(g.body_vertices_size()));
+
+  auto ply = cli.Get("/v1/jobs/" + id + "/iterations/" + n + "/design.ply");
+  ASSERT_TRUE(ply && ply->status == 200);
+  EXPECT_EQ(ply->body.rfind("ply\nformat binary_little_endian 1.0\n", 0), 0u);
+  EXPECT_NE(ply->body.find("element face " + std::to_string(nf) + "\n"), std::string::npos);
+  EXPECT_NE(ply->get_header_value("Content-Disposition").find("attachment"), std::string::npos);
+
+  // The evaluation: no motion on this scene (it says so), the Line and X of the final design's area.
+  auto ev = cli.Get("/v1/jobs/" + id + "/evaluation");
+  ASSERT_TRUE(ev && ev->status == 200) << (ev ? ev->body : "no response");
+  const auto evaluation = Parse<v1::DesignEvaluation>(ev->body);
+  EXPECT_EQ(evaluation.iteration(), rec.metrics().iteration());
+  EXPECT_EQ(evaluation.frames_size(), 0);
+  EXPECT_NE(evaluation.note().find("no motion frames"), std::string::npos) << evaluation.note();
+  ASSERT_EQ(evaluation.baselines_size(), 2);
+  EXPECT_TRUE(evaluation.baselines(0).positions().empty()) << "arrays come as binary";
+  EXPECT_NEAR(evaluation.baselines(0).area_fraction(), rec.metrics().area_fraction(), 0.02);
+  EXPECT_EQ(bytes("/evaluation/baselines/line/design.u8").size(), static_cast<size_t>(nf));
+  EXPECT_EQ(floats(bytes("/evaluation/baselines/x/positions.f32")).size(), static_cast<size_t>(3 * nv));
+  EXPECT_EQ(floats(bytes("/evaluation/baselines/x/energy.f32")).size(), static_cast<size_t>(nf));
+  auto no_frame = cli.Get("/v1/jobs/" + id + "/evaluation/frames/1/positions.f32");
+  ASSERT_TRUE(no_frame);
+  EXPECT_EQ(no_frame->status, 404);
+  EXPECT_NE(no_frame->body.find("not one of"), std::string::npos) << no_frame->body;
+  auto no_baseline = cli.Get("/v1/jobs/" + id + "/evaluation/baselines/zigzag/design.u8");
+  ASSERT_TRUE(no_baseline);
+  EXPECT_EQ(no_baseline->status, 404);
+
+  // The design file of an ended job, byte for byte as the server stores it.
+  auto h5 = cli.Get("/v1/jobs/" + id + "/design-file");
+  ASSERT_TRUE(h5 && h5->status == 200);
+  std::ifstream in(Service().dir() + "/data/jobs/job-" + id + ".h5", std::ios::binary);
+  EXPECT_EQ(h5->body, std::string(std::istreambuf_iterator<char>(in), {}));
+}
+
+TEST_F(HttpApi, CancelStopsARunningJob) {
+  const v1::Job job = Create(SleeveJob(400, "cancel"));
+  const std::string id = std::to_string(job.id());
+  ASSERT_TRUE(WaitFor([&] { return Get(id).iterations() >= 2; }, 300)) << Service().Log();
+  auto res = Service().Client().Post("/v1/jobs/" + id + ":cancel", "", "application/json");
+  ASSERT_TRUE(res);
+  ASSERT_EQ(res->status, 200) << res->body;
+  EXPECT_TRUE(Parse<v1::Job>(res->body).cancel_requested() || Parse<v1::Job>(res->body).state() == v1::CANCELLED);
+  ASSERT_TRUE(WaitFor([&] { return Ended(id); }, 60));
+  const v1::Job done = Get(id);
+  EXPECT_EQ(done.state(), v1::CANCELLED);
+  EXPECT_LT(done.iterations(), 400);
+  // While it ran, its design file was refused; now that it has ended it is served.
+  auto h5 = Service().Client().Get("/v1/jobs/" + id + "/design-file");
+  ASSERT_TRUE(h5);
+  EXPECT_EQ(h5->status, 200);
+}
+
+TEST_F(HttpApi, AJobListIsPagedAndFilteredByState) {
+  Create(SleeveJob(1, "list-a"));
+  Create(SleeveJob(1, "list-b"));
+  auto cli = Service().Client();
+  auto first = cli.Get("/v1/jobs?pageSize=1");
+  ASSERT_TRUE(first && first->status == 200);
+  const auto page1 = Parse<v1::ListJobsResponse>(first->body);
+  ASSERT_EQ(page1.jobs_size(), 1);
+  ASSERT_FALSE(page1.next_page_token().empty());
+  auto second = cli.Get("/v1/jobs?pageSize=1&pageToken=" + page1.next_page_token());
+  ASSERT_TRUE(second && second->status == 200);
+  const auto page2 = Parse<v1::ListJobsResponse>(second->body);
+  ASSERT_EQ(page2.jobs_size(), 1);
+  EXPECT_LT(page2.jobs(0).id(), page1.jobs(0).id()) << "newest first";
+  ASSERT_TRUE(WaitFor([&] { return Ended(std::to_string(page1.jobs(0).id())); }, 300));
+  auto succeeded = cli.Get("/v1/jobs?state=SUCCEEDED");
+  ASSERT_TRUE(succeeded && succeeded->status == 200);
+  const auto list = Parse<v1::ListJobsResponse>(succeeded->body);
+  EXPECT_GT(list.jobs_size(), 0);
+  for (const auto& j : list.jobs()) EXPECT_EQ(j.state(), v1::SUCCEEDED);
+}
+
+TEST_F(HttpApi, AnUploadedSceneFileWithItsMeshesRuns) {
+  const std::string dir = Service().dir() + "/scene";
+  const auto exported = cli_test::Kgd("scene export pull_test_line " + dir);
+  ASSERT_EQ(exported.exit_code, 0) << exported.output;
+  httplib::MultipartFormDataItems items;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    std::ifstream in(entry.path(), std::ios::binary);
+    const std::string content(std::istreambuf_iterator<char>(in), {});
+    const std::string name = entry.path().filename().string();
+    items.push_back({name == "scene.json" ? "scene" : name, content, name, "application/octet-stream"});
+  }
+  items.push_back({"spec", R"({"optimizer": {"budget": 0.5, "maxIterations": 3}, "label": "upload"})", "spec.json", "application/json"});
+  auto res = Service().Client().Post("/v1/jobs", items);
+  ASSERT_TRUE(res);
+  ASSERT_EQ(res->status, 200) << res->body;
+  const v1::Job job = Parse<v1::Job>(res->body);
+  EXPECT_TRUE(job.spec().has_scene_files());
+  EXPECT_EQ(job.spec().label(), "upload");
+  const std::string id = std::to_string(job.id());
+  ASSERT_TRUE(WaitFor([&] { return Ended(id); }, 300));
+  EXPECT_EQ(Get(id).state(), v1::SUCCEEDED) << Get(id).failure();
+  // Without the meshes the scene names, the upload is refused and says which file is missing.
+  httplib::MultipartFormDataItems scene_only;
+  for (const auto& item : items)
+    if (item.name == "scene") scene_only.push_back(item);
+  res = Service().Client().Post("/v1/jobs", scene_only);
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 400);
+  EXPECT_NE(res->body.find("INVALID_ARGUMENT"), std::string::npos) << res->body;
+}
+
+TEST_F(HttpApi, BadRequestsGetTheirStatusAndAMessageAndTheServerCarriesOn) {
+  auto cli = Service().Client();
+  struct Case {
+    std::string what;
+    std::function<httplib::Result()> send;
+    int http;
+    std::string status, message;
+  };
+  const std::string big(2 << 20, 'x');
+  const std::string known = std::to_string(Create(SleeveJob(1, "known")).id());
+  const std::vector<Case> cases = {
+      {"malformed JSON", [&] { return cli.Post("/v1/jobs", "{\"builtinScene\": ", "application/json"); }, 400, "INVALID_ARGUMENT", "kgd.v1.JobSpec"},
+      {"unknown field", [&] { return cli.Post("/v1/jobs", R"({"scene": "arm_flexion"})", "application/json"); }, 400, "INVALID_ARGUMENT", "scene"},
+      {"budget out of range", [&] { return cli.Post("/v1/jobs", R"({"builtinScene": "arm_flexion", "optimizer": {"budget": 1.5}})", "application/json"); },
+       400, "INVALID_ARGUMENT", "budget"},
+      {"unknown scene", [&] { return cli.Post("/v1/jobs", R"({"builtinScene": "moonwalk"})", "application/json"); }, 400, "INVALID_ARGUMENT", "moonwalk"},
+      {"wrong content type", [&] { return cli.Post("/v1/jobs", "builtinScene=arm_flexion", "text/plain"); }, 415, "INVALID_ARGUMENT", "text/plain"},
+      {"oversize upload", [&] { return cli.Post("/v1/jobs", big, "application/json"); }, 413, "RESOURCE_EXHAUSTED", "larger"},
+      {"unknown job", [&] { return cli.Get("/v1/jobs/987654"); }, 404, "NOT_FOUND", "job 987654"},
+      {"job id not a number", [&] { return cli.Get("/v1/jobs/abc"); }, 400, "INVALID_ARGUMENT", "'abc'"},
+      {"cancel an unknown job", [&] { return cli.Post("/v1/jobs/987654:cancel", "", "application/json"); }, 404, "NOT_FOUND", "987654"},
+      {"watch an unknown job", [&] { return cli.Get("/v1/jobs/987654:watch"); }, 404, "NOT_FOUND", "987654"},
+      {"iteration not stored", [&] { return cli.Get("/v1/jobs/" + known + "/iterations/100000"); }, 404, "NOT_FOUND", "100000"},
+      {"iteration not a number", [&] { return cli.Get("/v1/jobs/" + known + "/iterations/last"); }, 400, "INVALID_ARGUMENT", "'last'"},
+      {"bad state filter", [&] { return cli.Get("/v1/jobs?state=DONE"); }, 400, "INVALID_ARGUMENT", "DONE"},
+      {"unknown resource", [&] { return cli.Get("/v2/things"); }, 404, "NOT_FOUND", "/v2/things"},
+  };
+  for (const Case& c : cases) {
+    auto res = c.send();
+    ASSERT_TRUE(res) << c.what << ": no response (" << httplib::to_string(res.error()) << ")";
+    EXPECT_EQ(res->status, c.http) << c.what << ": " << res->body;
+    EXPECT_EQ(res->get_header_value("Content-Type"), "application/json") << c.what;
+    EXPECT_NE(res->body.find("\"status\": \"" + c.status + "\""), std::string::npos) << c.what << ": " << res->body;
+    EXPECT_NE(res->body.find(c.message), std::string::npos) << c.what << ": " << res->body;
+  }
+  // Unharmed: it still lists, creates and runs jobs.
+  const v1::Job job = Create(SleeveJob(2, "after"));
+  ASSERT_TRUE(WaitFor([&] { return Ended(std::to_string(job.id())); }, 300));
+  EXPECT_EQ(Get(std::to_string(job.id())).state(), v1::SUCCEEDED);
+}
+
+TEST_F(HttpApi, ThePageAndItsLibrariesAreServed) {
+  auto cli = Service().Client();
+  auto index = cli.Get("/");
+  ASSERT_TRUE(index && index->status == 200);
+  EXPECT_NE(index->body.find("<script type=\"module\" src=\"/app.js\">"), std::string::npos);
+  auto app = cli.Get("/app.js");
+  ASSERT_TRUE(app && app->status == 200);
+  EXPECT_EQ(app->get_header_value("Content-Type"), "text/javascript");
+  if (!fs::exists(fs::path(KGD_SOURCE_DIR) / "client/web/node_modules/three"))
+    GTEST_SKIP() << "client/web/node_modules is not installed (npm ci --prefix client/web); the page's libraries are not served";
+  auto three = cli.Get("/vendor/three/build/three.module.js");
+  ASSERT_TRUE(three && three->status == 200);
+  EXPECT_EQ(three->get_header_value("Content-Type"), "text/javascript");
+}
+
+}  // namespace
+}  // namespace kgd
