@@ -1,5 +1,7 @@
 #include "client/design_command.h"
 
+#include "job/fabrication_export.h"
+
 #include <unistd.h>
 
 #include <atomic>
@@ -41,20 +43,6 @@ struct DesignOptions {
   OptimizerFlags optimizer;
   bool json = false, verbose = false, evaluate = false;
 };
-
-// The scene a design file was made from, rebuilt (ResumeDesignJob checks it against the stored garment).
-Result<SceneSpec> RebuildSceneOfDesignFile(const std::string& path, const DesignFileHeader& h) {
-  Result<SceneSpec> scene = ResolveScene(h.scene, SplitWords(h.body));
-  if (!scene.ok()) return Status::Error(path + ": the job's scene '" + h.scene + "' cannot be rebuilt: " + scene.message());
-  return scene;
-}
-
-// ... and checked against the garment the file stores.
-Result<SceneSpec> SceneOfDesignFile(const std::string& path, const DesignFileHeader& h) {
-  Result<SceneSpec> scene = RebuildSceneOfDesignFile(path, h);
-  if (scene.ok()) KGD_RETURN_IF_ERROR(CheckStoredGarment(*scene, h, path));
-  return scene;
-}
 
 std::string Duration(double s) {
   char buf[32];
@@ -406,6 +394,67 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
   bl->add_flag("--json", *json, "Print as one JSON object");
   bl->callback([file, iteration, angle, angle_opt, out, json, exit_code] {
     *exit_code = RunBaselines(*file, *iteration, *angle, angle_opt->count() > 0, *out, *json);
+  });
+
+  struct ExportFlags {
+    std::string file, out, formats = "svg,dxf";
+    std::vector<std::string> body;
+    int iteration = -1;
+    double min_feature_mm = 3, seam_allowance_mm = 10, sheet_width_mm = 305;
+    bool no_mirror = false, json = false;
+  };
+  auto ex = std::make_shared<ExportFlags>();
+  CLI::App* xp = app.add_subcommand("export", "Cut files for fabrication: pattern pieces and reinforcement patches (SVG, DXF in mm) from a stored design");
+  xp->add_option("file", ex->file, "Design file (HDF5), or a scene file or built-in scene name to export its own design")->required();
+  xp->add_option("--body", ex->body, "With a built-in scene: a measurement of the parametric body, name=value in SI (repeatable)");
+  xp->add_option("--out", ex->out, "Output folder (created if missing)")->required();
+  xp->add_option("--iteration", ex->iteration, "Which iteration's design (default: the last within the budget)");
+  xp->add_option("--min-feature-mm", ex->min_feature_mm, "Remove reinforcement thinner than this (and islands and holes under its square x 4)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  xp->add_option("--seam-allowance-mm", ex->seam_allowance_mm, "Seam allowance around every pattern piece")->check(CLI::NonNegativeNumber)->capture_default_str();
+  xp->add_option("--sheet-width-mm", ex->sheet_width_mm, "Width of the vinyl roll the patches are nested on")->check(CLI::PositiveNumber)->capture_default_str();
+  xp->add_flag("--no-mirror", ex->no_mirror, "Do not mirror the patches (mirrored is right for heat-transfer vinyl cut from the back)");
+  xp->add_option("--formats", ex->formats, "Comma-separated: svg, dxf")->capture_default_str();
+  xp->add_flag("--json", ex->json, "Print the report as JSON");
+  xp->callback([ex, exit_code] {
+    ExportOptions o;
+    o.iteration = ex->iteration;
+    o.cleaning.min_feature_m = ex->min_feature_mm / 1000;
+    o.sheet.seam_allowance_mm = ex->seam_allowance_mm;
+    o.sheet.sheet_width_mm = ex->sheet_width_mm;
+    o.sheet.mirror = !ex->no_mirror;
+    o.formats.clear();
+    std::stringstream list(ex->formats);
+    for (std::string f; std::getline(list, f, ',');)
+      if (!f.empty()) o.formats.push_back(f);
+    // A design file, or a scene (file or built-in name) with its own design.
+    Result<ExportReport> r = Status::Error("");
+    if (std::filesystem::path(ex->file).extension() == ".h5") {
+      r = ExportDesign(ex->file, ex->out, o);
+    } else {
+      Result<SceneSpec> scene = ResolveScene(ex->file, ex->body);
+      r = scene.ok() ? ExportScene(*scene, ex->out, o) : Result<ExportReport>(scene.status());
+    }
+    if (!r.ok()) {
+      *exit_code = Fail("export", r.message());
+      return;
+    }
+    if (ex->json) {
+      std::printf("%s", ExportReportJson(*r).c_str());
+    } else {
+      const std::string what = r->iteration >= 0 ? "iteration " + std::to_string(r->iteration) : "design of " + r->design_file;
+      std::printf("%s: reinforced area %.1f%%, density ratio %.3f; cleaned (features >= %g mm): area %.1f%%, density ratio %.3f\n", what.c_str(),
+                  100 * r->area_fraction, r->density_ratio, ex->min_feature_mm, 100 * r->cleaned_area_fraction, r->cleaned_density_ratio);
+      for (size_t i = 0; i < r->pattern.pieces.size(); ++i) {
+        const Distortion& d = r->pattern.pieces[i].distortion;
+        std::printf("piece %zu: area distortion mean %.2f%% max %.2f%%, angle mean %.2f max %.2f deg\n", i + 1, 100 * d.area_mean, 100 * d.area_max,
+                    d.angle_mean_deg, d.angle_max_deg);
+      }
+      std::printf("%zu patches on a %g mm sheet (%.0f%% used)%s; %.2f s\n", r->patches.size(), ex->sheet_width_mm, 100 * r->sheet_usage,
+                  ex->no_mirror ? "" : ", mirrored", r->seconds);
+      for (const std::string& f : r->files) std::printf("wrote %s\n", f.c_str());
+    }
+    *exit_code = 0;
   });
 }
 

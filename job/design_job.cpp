@@ -5,6 +5,7 @@
 #include <tuple>
 
 #include "core/beso/baselines.h"
+#include "core/scene/builtin_scenes.h"
 #include "core/scene/simulate.h"
 #include "proto/job_spec.h"
 
@@ -79,6 +80,18 @@ Result<DesignJob> ResumeDesignJob(SceneSpec scene, DesignFileHeader header, std:
   job.header = std::move(header);
   job.history = std::move(history);
   return job;
+}
+
+Result<SceneSpec> RebuildSceneOfDesignFile(const std::string& path, const DesignFileHeader& h) {
+  Result<SceneSpec> scene = ResolveScene(h.scene, SplitWords(h.body));
+  if (!scene.ok()) return Status::Error(path + ": the job's scene '" + h.scene + "' cannot be rebuilt: " + scene.message());
+  return scene;
+}
+
+Result<SceneSpec> SceneOfDesignFile(const std::string& path, const DesignFileHeader& h) {
+  Result<SceneSpec> scene = RebuildSceneOfDesignFile(path, h);
+  if (scene.ok()) KGD_RETURN_IF_ERROR(CheckStoredGarment(*scene, h, path));
+  return scene;
 }
 
 Result<std::vector<BesoIteration>> RunDesignJob(const DesignJob& job, const std::function<bool(const BesoIteration&)>& on_iteration) {

@@ -41,6 +41,12 @@ Result<DesignJob> ResumeDesignJob(SceneSpec scene, DesignFileHeader header, std:
 // a face, a rest or an on-body vertex), prefixed by `source`.
 Status CheckStoredGarment(const SceneSpec& scene, const DesignFileHeader& header, const std::string& source);
 
+// The scene a design file was made from, rebuilt (ResumeDesignJob checks it against the stored
+// garment); errors are prefixed by `path`.
+Result<SceneSpec> RebuildSceneOfDesignFile(const std::string& path, const DesignFileHeader& header);
+// ... and checked against the garment the file stores.
+Result<SceneSpec> SceneOfDesignFile(const std::string& path, const DesignFileHeader& header);
+
 // Runs the job from its last iteration (or from the start): every new iteration goes to
 // `on_iteration`, which returns false to stop after it. Returns the new iterations.
 Result<std::vector<BesoIteration>> RunDesignJob(const DesignJob& job, const std::function<bool(const BesoIteration&)>& on_iteration);

@@ -18,6 +18,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev  # unit and integration tests
   libbenchmark-dev         # benchmarks in bench/
   libcpp-httplib-dev       # the HTTP door of the service (JSON API, Server-Sent Events, the web page)
+  libcgal-dev              # pattern pieces: least-squares conformal maps (Surface_mesh_parameterization)
 )
 
 # --browser: also Debian's chromium, for the web page's browser tests (`make test` passes it).

@@ -1,0 +1,225 @@
+#include "job/fabrication_export.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "core/scene/simulate.h"
+#include "job/design_job.h"
+#include "store/design_file.h"
+
+namespace kgd {
+namespace fs = std::filesystem;
+
+namespace {
+
+Status CheckOptions(const ExportOptions& o) {
+  const std::set<std::string> known = {"svg", "dxf"};
+  if (o.formats.empty()) return Status::Error("export: no format asked for (svg, dxf)");
+  for (const std::string& f : o.formats)
+    if (!known.count(f)) return Status::Error("export: unknown format '" + f + "' (svg, dxf)");
+  if (!(o.cleaning.min_feature_m >= 0) || !(o.sheet.seam_allowance_mm >= 0) || !(o.sheet.sheet_width_mm > 0) || !(o.sheet.gap_mm >= 0))
+    return Status::Error("export: minimum feature, seam allowance and gap must be >= 0 and the sheet width > 0");
+  return Status::Ok();
+}
+
+Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& strain, double full_density, const std::string& label,
+                                       const std::string& out_dir, const ExportOptions& o, ExportReport r,
+                                       std::chrono::steady_clock::time_point start);
+
+}  // namespace
+
+Result<ExportReport> ExportScene(const SceneSpec& scene, const std::string& out_dir, const ExportOptions& o) {
+  const auto start = std::chrono::steady_clock::now();
+  KGD_RETURN_IF_ERROR(CheckOptions(o));
+  if (scene.design.size() != static_cast<size_t>(scene.garment.faces.rows())) return Status::Error("export: scene '" + scene.name + "' has no design");
+  // Its density ratio is against the same garment fully reinforced.
+  SceneSpec full = scene;
+  full.design.assign(scene.garment.faces.rows(), 1);
+  Result<SimulationResult> f = SimulateScene(full);
+  if (!f.ok()) return f.status().WithContext("export: the fully reinforced garment: ");
+  Result<SimulationResult> d = SimulateScene(scene);
+  if (!d.ok()) return d.status().WithContext("export: the scene's design: ");
+  ExportReport r;
+  r.design_file = scene.name;
+  r.iteration = -1;
+  r.area_fraction = d->reinforced_area_m2 / d->garment_area_m2;
+  r.density_ratio = f->reinforced_density_J_per_m2 > 0 ? d->reinforced_density_J_per_m2 / f->reinforced_density_J_per_m2 : 0;
+  return ExportSceneDesign(scene, d->face_density_Pa, f->reinforced_density_J_per_m2, scene.name, out_dir, o, std::move(r), start);
+}
+
+Result<ExportReport> ExportDesign(const std::string& path, const std::string& out_dir, const ExportOptions& o) {
+  const auto start = std::chrono::steady_clock::now();
+  KGD_RETURN_IF_ERROR(CheckOptions(o));
+
+  Result<DesignFile> metrics = ReadDesignFile(path, {.arrays = false});
+  if (!metrics.ok()) return metrics.status();
+  const DesignFileHeader& h = metrics->header;
+  const int n = static_cast<int>(metrics->iterations.size());
+  if (n == 0) return Status::Error(path + ": no iterations stored yet");
+  int k = o.iteration;
+  if (k < 0) {
+    // The last design within the budget (every stored iteration is a valid design).
+    k = n - 1;
+    for (int i = n - 1; i >= 0; --i)
+      if (metrics->iterations[i].area_fraction <= h.settings.budget + 1e-9) {
+        k = i;
+        break;
+      }
+  }
+  if (k >= n) return Status::Error(path + ": iteration " + std::to_string(k) + " is not stored (0.." + std::to_string(n - 1) + ")");
+  Result<DesignFile> file = ReadDesignFile(path, {.arrays = true, .only_iteration = k});
+  if (!file.ok()) return file.status();
+  const BesoIteration& it = file->iterations[k];
+  const int nf = static_cast<int>(h.garment.faces.rows());
+  bool any = false;
+  for (uint8_t d : it.design) any |= d != 0;
+  if (!any) return Status::Error(path + ": iteration " + std::to_string(k) + " has no reinforced face: nothing to cut");
+  Result<SceneSpec> scene = SceneOfDesignFile(path, h);
+  if (!scene.ok()) return scene.status();
+  scene->design = it.design;
+  ExportReport r;
+  r.design_file = path;
+  r.iteration = k;
+  r.area_fraction = it.area_fraction;
+  r.density_ratio = it.density_ratio;
+  return ExportSceneDesign(std::move(scene).value(), it.energy_density_Pa, metrics->iterations[0].reinforced_density_J_per_m2,
+                           h.scene + ", iteration " + std::to_string(k), out_dir, o, std::move(r), start);
+}
+
+namespace {
+
+Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& strain, double full_density, const std::string& label,
+                                       const std::string& out_dir, const ExportOptions& o, ExportReport r,
+                                       std::chrono::steady_clock::time_point start) {
+  const int nf = static_cast<int>(scene.garment.faces.rows());
+  const TriMesh& garment = scene.garment;
+  const Eigen::VectorXd rest_area = FaceAreas(garment.vertices, garment.faces);
+  // Attachments stay as they are; clamp strips (a test sample's fixtures) are not garment.
+  std::vector<uint8_t> keep(nf, 0), include(nf, 1);
+  for (int a : scene.attachment_faces) keep[a] = 1;
+  if (scene.effects.clamps && !scene.clamps.empty()) {
+    std::vector<char> clamped(garment.vertices.rows(), 0);
+    for (const Clamp& c : scene.clamps)
+      for (int v : c.vertices) clamped[v] = 1;
+    for (int f = 0; f < nf; ++f)
+      if (clamped[garment.faces(f, 0)] && clamped[garment.faces(f, 1)] && clamped[garment.faces(f, 2)]) include[f] = 0, keep[f] = 1;
+  }
+  bool any = false;
+  for (int f = 0; f < nf; ++f) any |= scene.design[f] && include[f];
+  if (!any) return Status::Error("export: " + label + " has no reinforced face: nothing to cut");
+  r.cleaned = CleanDesign(garment, scene.design, o.cleaning, keep);
+
+  // The cleaned design, simulated as the design loop does.
+  SceneSpec cleaned = scene;
+  cleaned.design = r.cleaned.design;
+  Result<SimulationResult> sim = SimulateScene(cleaned);
+  if (!sim.ok()) return sim.status().WithContext("export: the cleaned design: ");
+  r.cleaned_density_ratio = full_density > 0 ? sim->reinforced_density_J_per_m2 / full_density : 0;
+  r.cleaned_area_fraction = sim->reinforced_area_m2 / rest_area.sum();
+  r.cleaned_solve_status = ToString(sim->solve.status);
+
+  PatternOptions po;
+  po.strain = strain;
+  Result<Pattern> pattern = CutPattern(garment, po);
+  if (!pattern.ok()) return pattern.status().WithContext("export: " + label + ": ");
+  r.pattern = std::move(pattern).value();
+  const double min_area = o.cleaning.min_area_m2 > 0 ? o.cleaning.min_area_m2 : 4 * o.cleaning.min_feature_m * o.cleaning.min_feature_m;
+  r.patches = ReinforcementPatches(r.pattern, r.cleaned.design, include, min_area);
+  r.seam_lengths = SeamLengths(r.pattern);
+  SheetOptions so = o.sheet;
+  if (so.label.empty()) so.label = label;
+  const Sheet pieces = PatternSheet(r.pattern, r.patches, so);
+  Result<Sheet> patches = PatchSheet(r.patches, so, &r.sheet_usage);
+  if (!patches.ok()) return patches.status().WithContext("export: ");
+
+  // Everything under temporary names first, then renamed: all the files or none.
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (ec) return Status::Error("export: cannot create " + out_dir + ": " + ec.message());
+  std::vector<std::pair<std::string, std::string>> files;  // name, contents
+  for (const std::string& f : o.formats) {
+    files.push_back({"pattern." + f, f == "svg" ? SvgText(pieces) : DxfText(pieces)});
+    files.push_back({"patches." + f, f == "svg" ? SvgText(*patches) : DxfText(*patches)});
+  }
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (const auto& [name, contents] : files) r.files.push_back((fs::path(out_dir) / name).string());
+  r.files.push_back((fs::path(out_dir) / "report.json").string());
+  files.push_back({"report.json", ExportReportJson(r)});
+  const std::string suffix = ".tmp" + std::to_string(getpid());
+  std::vector<std::string> written;
+  auto clean_up = [&] {
+    for (const std::string& t : written) fs::remove(t, ec);
+  };
+  for (const auto& [name, contents] : files) {
+    const std::string tmp = (fs::path(out_dir) / (name + suffix)).string();
+    std::ofstream out(tmp, std::ios::binary);
+    written.push_back(tmp);
+    out << contents;
+    out.close();
+    if (!out) {
+      clean_up();
+      return Status::Error("export: cannot write " + tmp + " (disk full, or the folder is not writable?)");
+    }
+  }
+  for (size_t i = 0; i < files.size(); ++i) {
+    fs::rename(written[i], (fs::path(out_dir) / files[i].first), ec);
+    if (ec) {
+      clean_up();
+      return Status::Error("export: cannot rename " + written[i] + ": " + ec.message());
+    }
+  }
+  return r;
+}
+
+}  // namespace
+
+std::string ExportReportJson(const ExportReport& r) {
+  nlohmann::ordered_json j;
+  j["design_file"] = r.design_file;
+  j["iteration"] = r.iteration;
+  j["area_fraction"] = r.area_fraction;
+  j["density_ratio"] = r.density_ratio;
+  j["cleaned"] = {{"area_fraction", r.cleaned_area_fraction},
+                  {"density_ratio", r.cleaned_density_ratio},
+                  {"solve_status", r.cleaned_solve_status},
+                  {"removed_m2", r.cleaned.removed_m2},
+                  {"added_m2", r.cleaned.added_m2},
+                  {"islands_removed", r.cleaned.islands_removed},
+                  {"holes_filled", r.cleaned.holes_filled}};
+  j["pieces"] = nlohmann::json::array();
+  for (size_t i = 0; i < r.pattern.pieces.size(); ++i) {
+    const PatternPiece& p = r.pattern.pieces[i];
+    Positions flat3(p.flat.rows(), 3);
+    flat3 << p.flat, Eigen::VectorXd::Zero(p.flat.rows());
+    j["pieces"].push_back({{"piece", i + 1},
+                           {"faces", p.faces.rows()},
+                           {"rest_area_m2", FaceAreas(p.rest, p.faces).sum()},
+                           {"flat_area_m2", FaceAreas(flat3, p.faces).sum()},
+                           {"area_distortion_mean", p.distortion.area_mean},
+                           {"area_distortion_max", p.distortion.area_max},
+                           {"angle_distortion_mean_deg", p.distortion.angle_mean_deg},
+                           {"angle_distortion_max_deg", p.distortion.angle_max_deg}});
+  }
+  j["seams"] = nlohmann::json::array();
+  for (size_t i = 0; i < r.seam_lengths.size(); ++i)
+    j["seams"].push_back({{"seam", i + 1}, {"vertices", r.pattern.seams[i].vertices.size()}, {"side_a_mm", r.seam_lengths[i].a_mm},
+                          {"side_b_mm", r.seam_lengths[i].b_mm}});
+  j["patches"] = nlohmann::json::array();
+  for (size_t i = 0; i < r.patches.size(); ++i)
+    j["patches"].push_back({{"patch", i + 1},
+                            {"piece", r.patches[i].piece + 1},
+                            {"area_m2", r.patches[i].area_m2},
+                            {"outline_area_m2", r.patches[i].outline_area_m2},
+                            {"holes", r.patches[i].holes.size()}});
+  j["sheet_usage"] = r.sheet_usage;
+  j["files"] = r.files;
+  j["seconds"] = r.seconds;
+  return j.dump(2) + "\n";
+}
+
+}  // namespace kgd

@@ -1,0 +1,53 @@
+// Fabrication export: a stored design (any iteration of a design file) to the files a maker cuts from
+// (core/fabrication/): the pattern pieces and the reinforcement patches as SVG and DXF in millimetres,
+// and a JSON report. The design is cleaned for manufacture first and the cleaned design simulated
+// again, so the report gives its density ratio beside the stored one.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/fabrication/cut_sheet.h"
+#include "core/fabrication/patches.h"
+#include "core/fabrication/pattern.h"
+#include "core/scene/scene.h"
+#include "core/util/status.h"
+
+namespace kgd {
+
+struct ExportOptions {
+  int iteration = -1;                 // -1: the last iteration within the budget (else the last)
+  CleaningOptions cleaning;
+  SheetOptions sheet;
+  std::vector<std::string> formats = {"svg", "dxf"};
+};
+
+struct ExportReport {
+  std::string design_file;
+  int iteration = 0;
+  Pattern pattern;
+  std::vector<Patch> patches;
+  CleanedDesign cleaned;
+  double area_fraction = 0, cleaned_area_fraction = 0;
+  double density_ratio = 0, cleaned_density_ratio = 0;  // vs the file's iteration 0
+  std::string cleaned_solve_status;
+  double sheet_usage = 0;
+  std::vector<SeamSides> seam_lengths;
+  std::vector<std::string> files;     // written, in order
+  double seconds = 0;
+};
+
+// Exports iteration `options.iteration` of `design_file` into `out_dir` (created if missing):
+// pattern.svg / pattern.dxf (pieces), patches.svg / patches.dxf (the vinyl sheet) per `formats`, and
+// report.json. Every file is written under a temporary name and renamed only when all are written: a
+// failed export leaves no file behind. Errors name the file, the iteration or the format.
+Result<ExportReport> ExportDesign(const std::string& design_file, const std::string& out_dir, const ExportOptions& options);
+
+// The same for a scene's own design (a scene file's, or a built-in scene's such as pull_test_line):
+// its density ratio against the same garment fully reinforced. `iteration` in the report is -1.
+Result<ExportReport> ExportScene(const SceneSpec& scene, const std::string& out_dir, const ExportOptions& options);
+
+// The report as JSON (SI units, and mm where the key says so).
+std::string ExportReportJson(const ExportReport& report);
+
+}  // namespace kgd

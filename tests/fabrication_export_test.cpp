@@ -1,0 +1,231 @@
+// `kgd export` end to end: cut files read back by their own parsers (SVG polygons, DXF R12 group codes),
+// a flat sample exactly, a sleeve design with its patches nested, mirrored and placed, and bad input
+// refused with no file left behind.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+
+#include "tests/kgd_cli.h"
+
+namespace kgd {
+namespace {
+namespace fs = std::filesystem;
+using cli_test::Kgd;
+
+using Polygon = std::vector<std::pair<double, double>>;
+
+std::string Read(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// The closed polygons of one SVG layer (a <g data-layer="N"> group), in mm with y down as drawn.
+std::vector<Polygon> SvgPolygons(const std::string& svg, const std::string& layer) {
+  std::vector<Polygon> out;
+  const size_t g = svg.find("data-layer=\"" + layer + "\"");
+  if (g == std::string::npos) return out;
+  const std::string group = svg.substr(g, svg.find("</g>", g) - g);
+  const std::regex poly("<polygon points=\"([^\"]*)\"");
+  for (auto it = std::sregex_iterator(group.begin(), group.end(), poly); it != std::sregex_iterator(); ++it) {
+    Polygon p;
+    std::istringstream points((*it)[1].str());
+    for (std::string xy; points >> xy;) {
+      const size_t comma = xy.find(',');
+      p.push_back({std::stod(xy.substr(0, comma)), std::stod(xy.substr(comma + 1))});
+    }
+    out.push_back(p);
+  }
+  return out;
+}
+
+// Closed POLYLINEs of one DXF layer, and the header's $INSUNITS.
+struct Dxf {
+  int insunits = -1;
+  std::map<std::string, std::vector<Polygon>> closed;
+};
+Dxf ParseDxf(const std::string& text) {
+  std::istringstream in(text);
+  std::vector<std::pair<int, std::string>> pairs;
+  for (std::string code, value; std::getline(in, code) && std::getline(in, value);) pairs.push_back({std::stoi(code), value});
+  Dxf d;
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    if (pairs[i] == std::pair<int, std::string>{9, "$INSUNITS"}) d.insunits = std::stoi(pairs[i + 1].second);
+    if (pairs[i] != std::pair<int, std::string>{0, "POLYLINE"}) continue;
+    std::string layer;
+    bool closed = false;
+    size_t j = i + 1;
+    for (; pairs[j].first != 0; ++j) {
+      if (pairs[j].first == 8) layer = pairs[j].second;
+      if (pairs[j].first == 70) closed = std::stoi(pairs[j].second) & 1;
+    }
+    Polygon p;
+    for (; pairs[j].second == "VERTEX"; ) {
+      double x = 0, y = 0;
+      for (++j; pairs[j].first != 0; ++j) {
+        if (pairs[j].first == 10) x = std::stod(pairs[j].second);
+        if (pairs[j].first == 20) y = std::stod(pairs[j].second);
+      }
+      p.push_back({x, y});
+    }
+    if (closed) d.closed[layer].push_back(p);
+    i = j;
+  }
+  return d;
+}
+
+double SignedArea(const Polygon& p) {
+  double a = 0;
+  for (size_t i = 0; i < p.size(); ++i) {
+    const auto& [x0, y0] = p[i];
+    const auto& [x1, y1] = p[(i + 1) % p.size()];
+    a += x0 * y1 - x1 * y0;
+  }
+  return 0.5 * a;
+}
+
+std::pair<double, double> Extent(const Polygon& p) {
+  double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+  for (const auto& [x, y] : p) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  return {x1 - x0, y1 - y0};
+}
+
+fs::path TempDir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("kgd_export_test_" + name);
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+TEST(Export, TheFlatSampleWithTheLineGivesA40By100MillimetreBandExactly) {
+  const fs::path dir = TempDir("line");
+  const auto run = Kgd("export pull_test_line --out " + (dir / "cut").string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  for (const char* f : {"pattern.svg", "pattern.dxf", "patches.svg", "patches.dxf", "report.json"}) EXPECT_TRUE(fs::exists(dir / "cut" / f)) << f;
+  const std::string svg = Read(dir / "cut/patches.svg");
+  EXPECT_NE(svg.find("width=\"305mm\""), std::string::npos);
+  EXPECT_NE(svg.find("viewBox=\"0 0 305 "), std::string::npos);
+  const std::vector<Polygon> from_svg = SvgPolygons(svg, "1");
+  ASSERT_EQ(from_svg.size(), 1u);
+  const auto [w, h] = Extent(from_svg[0]);
+  EXPECT_NEAR(std::min(w, h), 40, 0.01);
+  EXPECT_NEAR(std::max(w, h), 100, 0.01);
+  const Dxf dxf = ParseDxf(Read(dir / "cut/patches.dxf"));
+  EXPECT_EQ(dxf.insunits, 4) << "millimetres";
+  ASSERT_EQ(dxf.closed.count("1"), 1u);
+  ASSERT_EQ(dxf.closed.at("1").size(), 1u);
+  const auto [dw, dh] = Extent(dxf.closed.at("1")[0]);
+  EXPECT_NEAR(std::min(dw, dh), 40, 0.01);
+  EXPECT_NEAR(std::max(dw, dh), 100, 0.01);
+  const nlohmann::json report = nlohmann::json::parse(Read(dir / "cut/report.json"));
+  ASSERT_EQ(report["pieces"].size(), 1u);
+  EXPECT_EQ(report["pieces"][0]["area_distortion_max"], 0.0);
+  EXPECT_EQ(report["pieces"][0]["angle_distortion_max_deg"], 0.0);
+  // The pattern piece: the whole 100 x 140 mm sample, its sew line exact.
+  const Dxf pattern = ParseDxf(Read(dir / "cut/pattern.dxf"));
+  ASSERT_EQ(pattern.closed.at("14").size(), 1u);
+  const auto [pw, ph] = Extent(pattern.closed.at("14")[0]);
+  EXPECT_NEAR(std::min(pw, ph), 100, 0.01);
+  EXPECT_NEAR(std::max(pw, ph), 140, 0.01);
+}
+
+TEST(Export, ASleeveDesignIsCutIntoPiecesWithPatchesNestedMirroredAndPlaced) {
+  const fs::path dir = TempDir("arm");
+  const std::string file = (dir / "arm.h5").string();
+  const auto design = Kgd("design arm_flexion --iterations 60 --out " + file + " --json");
+  ASSERT_EQ(design.exit_code, 0) << design.output;
+  const auto run = Kgd("export " + file + " --out " + (dir / "cut").string() + " --json");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const nlohmann::json report = nlohmann::json::parse(run.output);
+  EXPECT_EQ(report["iteration"], 60) << "the last iteration (none is within the budget yet)";
+  std::printf("arm flexion, iteration 60: density ratio %.4f, cleaned %.4f; %zu pieces, %zu patches, sheet usage %.2f, %.2f s\n",
+              report["density_ratio"].get<double>(), report["cleaned"]["density_ratio"].get<double>(), report["pieces"].size(),
+              report["patches"].size(), report["sheet_usage"].get<double>(), report["seconds"].get<double>());
+  EXPECT_NEAR(report["cleaned"]["density_ratio"].get<double>(), report["density_ratio"].get<double>(), 0.03 * report["density_ratio"].get<double>());
+  for (const auto& p : report["pieces"]) {
+    std::printf("  piece %d: area distortion mean %.2f%% max %.2f%%, angle mean %.2f max %.2f deg\n", p["piece"].get<int>(),
+                100 * p["area_distortion_mean"].get<double>(), 100 * p["area_distortion_max"].get<double>(), p["angle_distortion_mean_deg"].get<double>(),
+                p["angle_distortion_max_deg"].get<double>());
+    const double rest = p["rest_area_m2"], flat = p["flat_area_m2"];
+    EXPECT_NEAR(flat, rest, p["area_distortion_mean"].get<double>() * rest + 1e-12);
+    EXPECT_LE(p["area_distortion_mean"].get<double>(), 0.02);
+    EXPECT_LE(p["angle_distortion_mean_deg"].get<double>(), 2.0);
+  }
+  for (const auto& s : report["seams"]) {
+    std::printf("  seam %d: sides %.2f and %.2f mm\n", s["seam"].get<int>(), s["side_a_mm"].get<double>(), s["side_b_mm"].get<double>());
+    EXPECT_NEAR(s["side_a_mm"].get<double>(), s["side_b_mm"].get<double>(), 2.0) << "the two sides sewn together";
+  }
+
+  // Nested patches: inside the sheet and apart (bounding boxes, which is how they are nested).
+  const std::string svg = Read(dir / "cut/patches.svg");
+  const std::vector<Polygon> patches = SvgPolygons(svg, "1");
+  ASSERT_GE(patches.size(), 1u);
+  std::vector<std::array<double, 4>> boxes;
+  for (const Polygon& p : patches) {
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    for (const auto& [x, y] : p) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+    EXPECT_GE(x0, 0);
+    EXPECT_LE(x1, 305);
+    EXPECT_GE(y0, 0);
+    boxes.push_back({x0, x1, y0, y1});
+  }
+  // Holes sit inside their outline's box; outlines do not overlap each other's.
+  size_t overlaps = 0;
+  for (size_t i = 0; i < boxes.size(); ++i)
+    for (size_t j = i + 1; j < boxes.size(); ++j) {
+      const bool apart = boxes[i][1] <= boxes[j][0] || boxes[j][1] <= boxes[i][0] || boxes[i][3] <= boxes[j][2] || boxes[j][3] <= boxes[i][2];
+      const bool inside = (boxes[j][0] >= boxes[i][0] && boxes[j][1] <= boxes[i][1] && boxes[j][2] >= boxes[i][2] && boxes[j][3] <= boxes[i][3]) ||
+                          (boxes[i][0] >= boxes[j][0] && boxes[i][1] <= boxes[j][1] && boxes[i][2] >= boxes[j][2] && boxes[i][3] <= boxes[j][3]);
+      overlaps += !apart && !inside;
+    }
+  EXPECT_EQ(overlaps, 0u);
+
+  // Placement guides on the pieces have the patches' areas (the mirror aside).
+  const std::vector<Polygon> guides = SvgPolygons(Read(dir / "cut/pattern.svg"), "8");
+  double guide_area = 0, patch_area = 0;
+  for (const Polygon& p : guides) guide_area += SignedArea(p);
+  for (const Polygon& p : patches) patch_area += SignedArea(p);
+  EXPECT_NEAR(std::abs(guide_area), std::abs(patch_area), 1e-3 * std::abs(patch_area));
+
+  // --no-mirror turns the patches over: the signed areas change sign.
+  const auto plain = Kgd("export " + file + " --out " + (dir / "plain").string() + " --no-mirror");
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  const std::vector<Polygon> unmirrored = SvgPolygons(Read(dir / "plain/patches.svg"), "1");
+  ASSERT_EQ(unmirrored.size(), patches.size());
+  double unmirrored_area = 0;
+  for (const Polygon& p : unmirrored) unmirrored_area += SignedArea(p);
+  EXPECT_LT(unmirrored_area * patch_area, 0);
+}
+
+TEST(Export, BadInputIsRefusedByNameAndLeavesNoFile) {
+  const fs::path dir = TempDir("bad");
+  const std::string file = (dir / "line.h5").string();
+  ASSERT_EQ(Kgd("design pull_test_line --iterations 2 --out " + file).exit_code, 0);
+  { std::ofstream(dir / "foreign.h5") << "not hdf5"; }
+  struct Case {
+    std::string args, message;
+  };
+  const std::vector<Case> cases = {
+      {"export " + file + " --iteration 9", "iteration 9 is not stored (0..2)"},
+      {"export " + file + " --formats svg,pdf", "unknown format 'pdf'"},
+      {"export " + (dir / "foreign.h5").string(), "foreign.h5"},
+      {"export " + (dir / "missing.h5").string(), "missing.h5"},
+      {"export pull_test_all_cloth", "nothing to cut"},
+      {"export no_such_scene", "no_such_scene"},
+  };
+  for (const Case& c : cases) {
+    const fs::path out = dir / "out";
+    fs::remove_all(out);
+    const auto run = Kgd(c.args + " --out " + out.string());
+    EXPECT_EQ(run.exit_code, 2) << c.args << ": " << run.output;
+    EXPECT_NE(run.output.find(c.message), std::string::npos) << c.args << ": " << run.output;
+    EXPECT_TRUE(!fs::exists(out) || fs::is_empty(out)) << c.args << " left files behind";
+  }
+}
+
+}  // namespace
+}  // namespace kgd
