@@ -87,6 +87,8 @@ Result<ExportReport> ExportDesign(const std::string& path, const std::string& ou
   r.iteration = k;
   r.area_fraction = it.area_fraction;
   r.density_ratio = it.density_ratio;
+  // The cleaned design differs little from the stored one: its solve starts from the stored equilibrium.
+  scene->initial = it.positions;
   return ExportSceneDesign(std::move(scene).value(), it.energy_density_Pa, metrics->iterations[0].reinforced_density_J_per_m2,
                            h.scene + ", iteration " + std::to_string(k), out_dir, o, std::move(r), start);
 }
