@@ -95,63 +95,43 @@ Result<ExportReport> ExportDesign(const std::string& path, const std::string& ou
 
 namespace {
 
-Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& strain, double full_density, const std::string& label,
-                                       const std::string& out_dir, const ExportOptions& o, ExportReport r,
-                                       std::chrono::steady_clock::time_point start) {
-  const int nf = static_cast<int>(scene.garment.faces.rows());
-  const TriMesh& garment = scene.garment;
-  const Eigen::VectorXd rest_area = FaceAreas(garment.vertices, garment.faces);
-  // Attachments stay as they are; clamp strips (a test sample's fixtures) are not garment.
-  std::vector<uint8_t> keep(nf, 0), include(nf, 1);
-  for (int a : scene.attachment_faces) keep[a] = 1;
-  if (scene.effects.clamps && !scene.clamps.empty()) {
-    std::vector<char> clamped(garment.vertices.rows(), 0);
-    for (const Clamp& c : scene.clamps)
-      for (int v : c.vertices) clamped[v] = 1;
-    for (int f = 0; f < nf; ++f)
-      if (clamped[garment.faces(f, 0)] && clamped[garment.faces(f, 1)] && clamped[garment.faces(f, 2)]) include[f] = 0, keep[f] = 1;
-  }
-  bool any = false;
-  for (int f = 0; f < nf; ++f) any |= scene.design[f] && include[f];
-  if (!any) return Status::Error("export: " + label + " has no reinforced face: nothing to cut");
-  r.cleaned = CleanDesign(garment, scene.design, o.cleaning, keep);
+using Files = std::vector<std::pair<std::string, std::string>>;  // name, contents
 
-  // The cleaned design, simulated as the design loop does.
-  SceneSpec cleaned = scene;
-  cleaned.design = r.cleaned.design;
-  Result<SimulationResult> sim = SimulateScene(cleaned);
-  if (!sim.ok()) return sim.status().WithContext("export: the cleaned design: ");
-  r.cleaned_density_ratio = full_density > 0 ? sim->reinforced_density_J_per_m2 / full_density : 0;
-  r.cleaned_area_fraction = sim->reinforced_area_m2 / rest_area.sum();
-  r.cleaned_solve_status = ToString(sim->solve.status);
-
+// The pattern, the patches of r->cleaned.design and the sheets' files (report.json aside).
+Status CutFiles(const TriMesh& garment, const Eigen::VectorXd& strain, const std::vector<uint8_t>& include, const std::string& label,
+                const ExportOptions& o, ExportReport* r, Files* files) {
   PatternOptions po;
   po.strain = strain;
   Result<Pattern> pattern = CutPattern(garment, po);
   if (!pattern.ok()) return pattern.status().WithContext("export: " + label + ": ");
-  r.pattern = std::move(pattern).value();
+  r->pattern = std::move(pattern).value();
   const double min_area = o.cleaning.min_area_m2 > 0 ? o.cleaning.min_area_m2 : 4 * o.cleaning.min_feature_m * o.cleaning.min_feature_m;
-  r.patches = ReinforcementPatches(r.pattern, r.cleaned.design, include, min_area);
-  r.seam_lengths = SeamLengths(r.pattern);
+  r->patches = ReinforcementPatches(r->pattern, r->cleaned.design, include, min_area);
+  r->seam_lengths = SeamLengths(r->pattern);
   SheetOptions so = o.sheet;
   if (so.label.empty()) so.label = label;
-  const Sheet pieces = PatternSheet(r.pattern, r.patches, so);
-  Result<Sheet> patches = PatchSheet(r.patches, so, &r.sheet_usage);
+  const Sheet pieces = PatternSheet(r->pattern, r->patches, so);
+  Result<Sheet> patches = PatchSheet(r->patches, so, &r->sheet_usage);
   if (!patches.ok()) return patches.status().WithContext("export: ");
+  for (const std::string& f : o.formats) {
+    files->push_back({"pattern." + f, f == "svg" ? SvgText(pieces) : DxfText(pieces)});
+    files->push_back({"patches." + f, f == "svg" ? SvgText(*patches) : DxfText(*patches)});
+  }
+  return Status::Ok();
+}
 
-  // Everything under temporary names first, then renamed: all the files or none.
+// Attachments stay as they are (keep); faces left out of the patches (include = 0) stay too.
+Status CheckReinforced(const std::vector<uint8_t>& design, const std::vector<uint8_t>& include, const std::string& label) {
+  for (size_t f = 0; f < design.size(); ++f)
+    if (design[f] && include[f]) return Status::Ok();
+  return Status::Error("export: " + label + " has no reinforced face: nothing to cut");
+}
+
+// Writes every file under a temporary name, then renames them all: all the files or none.
+Status WriteAll(const std::string& out_dir, const Files& files) {
   std::error_code ec;
   fs::create_directories(out_dir, ec);
   if (ec) return Status::Error("export: cannot create " + out_dir + ": " + ec.message());
-  std::vector<std::pair<std::string, std::string>> files;  // name, contents
-  for (const std::string& f : o.formats) {
-    files.push_back({"pattern." + f, f == "svg" ? SvgText(pieces) : DxfText(pieces)});
-    files.push_back({"patches." + f, f == "svg" ? SvgText(*patches) : DxfText(*patches)});
-  }
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  for (const auto& [name, contents] : files) r.files.push_back((fs::path(out_dir) / name).string());
-  r.files.push_back((fs::path(out_dir) / "report.json").string());
-  files.push_back({"report.json", ExportReportJson(r)});
   const std::string suffix = ".tmp" + std::to_string(getpid());
   std::vector<std::string> written;
   auto clean_up = [&] {
@@ -175,10 +155,76 @@ Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& s
       return Status::Error("export: cannot rename " + written[i] + ": " + ec.message());
     }
   }
+  return Status::Ok();
+}
+
+Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& strain, double full_density, const std::string& label,
+                                       const std::string& out_dir, const ExportOptions& o, ExportReport r,
+                                       std::chrono::steady_clock::time_point start) {
+  const int nf = static_cast<int>(scene.garment.faces.rows());
+  const TriMesh& garment = scene.garment;
+  const Eigen::VectorXd rest_area = FaceAreas(garment.vertices, garment.faces);
+  // Clamp strips (a test sample's fixtures) are not garment.
+  std::vector<uint8_t> keep(nf, 0), include(nf, 1);
+  for (int a : scene.attachment_faces) keep[a] = 1;
+  if (scene.effects.clamps && !scene.clamps.empty()) {
+    std::vector<char> clamped(garment.vertices.rows(), 0);
+    for (const Clamp& c : scene.clamps)
+      for (int v : c.vertices) clamped[v] = 1;
+    for (int f = 0; f < nf; ++f)
+      if (clamped[garment.faces(f, 0)] && clamped[garment.faces(f, 1)] && clamped[garment.faces(f, 2)]) include[f] = 0, keep[f] = 1;
+  }
+  KGD_RETURN_IF_ERROR(CheckReinforced(scene.design, include, label));
+  r.cleaned = CleanDesign(garment, scene.design, o.cleaning, keep);
+
+  // The cleaned design, simulated as the design loop does.
+  SceneSpec cleaned = scene;
+  cleaned.design = r.cleaned.design;
+  Result<SimulationResult> sim = SimulateScene(cleaned);
+  if (!sim.ok()) return sim.status().WithContext("export: the cleaned design: ");
+  r.cleaned_density_ratio = full_density > 0 ? sim->reinforced_density_J_per_m2 / full_density : 0;
+  r.cleaned_area_fraction = sim->reinforced_area_m2 / rest_area.sum();
+  r.cleaned_solve_status = ToString(sim->solve.status);
+
+  Files files;
+  KGD_RETURN_IF_ERROR(CutFiles(garment, strain, include, label, o, &r, &files));
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (const auto& [name, contents] : files) r.files.push_back((fs::path(out_dir) / name).string());
+  r.files.push_back((fs::path(out_dir) / "report.json").string());
+  files.push_back({"report.json", ExportReportJson(r)});
+  KGD_RETURN_IF_ERROR(WriteAll(out_dir, files));
   return r;
 }
 
 }  // namespace
+
+Result<ExportFiles> ExportGeometry(const DesignFileHeader& h, const BesoIteration& it, const ExportOptions& o) {
+  const auto start = std::chrono::steady_clock::now();
+  KGD_RETURN_IF_ERROR(CheckOptions(o));
+  const int nf = static_cast<int>(h.garment.faces.rows());
+  if (static_cast<int>(it.design.size()) != nf) return Status::Error("export: iteration " + std::to_string(it.iteration) + " carries no design");
+  const std::string label = h.scene + ", iteration " + std::to_string(it.iteration);
+  std::vector<uint8_t> keep(nf, 0), include(nf, 1);
+  for (int a : h.attachment_faces) keep[a] = 1;
+  KGD_RETURN_IF_ERROR(CheckReinforced(it.design, include, label));
+  ExportFiles out;
+  ExportReport& r = out.report;
+  r.design_file = h.scene;
+  r.iteration = it.iteration;
+  r.area_fraction = it.area_fraction;
+  r.density_ratio = it.density_ratio;
+  r.cleaned = CleanDesign(h.garment, it.design, o.cleaning, keep);
+  double area = 0;
+  for (int f = 0; f < nf; ++f) area += r.cleaned.design[f] ? h.rest_area_m2[f] : 0;
+  r.cleaned_area_fraction = area / h.rest_area_m2.sum();
+  r.cleaned_solve_status = "not simulated";
+  KGD_RETURN_IF_ERROR(CutFiles(h.garment, it.energy_density_Pa, include, label, o, &r, &out.files));
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (const auto& [name, contents] : out.files) r.files.push_back(name);
+  r.files.push_back("report.json");
+  out.files.push_back({"report.json", ExportReportJson(r)});
+  return out;
+}
 
 std::string ExportReportJson(const ExportReport& r) {
   nlohmann::ordered_json j;

@@ -12,6 +12,7 @@
 #include "core/fabrication/pattern.h"
 #include "core/scene/scene.h"
 #include "core/util/status.h"
+#include "store/design_file.h"
 
 namespace kgd {
 
@@ -46,6 +47,16 @@ Result<ExportReport> ExportDesign(const std::string& design_file, const std::str
 // The same for a scene's own design (a scene file's, or a built-in scene's such as pull_test_line):
 // its density ratio against the same garment fully reinforced. `iteration` in the report is -1.
 Result<ExportReport> ExportScene(const SceneSpec& scene, const std::string& out_dir, const ExportOptions& options);
+
+// The files of an export from a design file's header and one iteration (with its arrays), in memory,
+// by geometry alone: no scene is built and nothing is simulated (the report's cleaned density ratio is
+// 0 and its solve status "not simulated"; no clamp strips are known). What the design service offers
+// for download, since it never simulates.
+struct ExportFiles {
+  std::vector<std::pair<std::string, std::string>> files;  // name (pattern.svg, ..., report.json), contents
+  ExportReport report;
+};
+Result<ExportFiles> ExportGeometry(const DesignFileHeader& header, const BesoIteration& iteration, const ExportOptions& options);
 
 // The report as JSON (SI units, and mm where the key says so).
 std::string ExportReportJson(const ExportReport& report);

@@ -42,6 +42,9 @@ class GrpcServices final : public v1::DesignService::Service, public v1::WorkerS
   grpc::Status GetEvaluation(ServerContext*, const v1::GetEvaluationRequest* req, v1::DesignEvaluation* out) override {
     return ToGrpc(service_.GetEvaluation(req->id(), out));
   }
+  grpc::Status ExportDesign(ServerContext*, const v1::ExportDesignRequest* req, v1::ExportDesignResponse* out) override {
+    return ToGrpc(service_.ExportDesign(*req, out));
+  }
   grpc::Status WatchJob(ServerContext* ctx, const v1::WatchJobRequest* req, grpc::ServerWriter<v1::WatchJobEvent>* writer) override {
     return ToGrpc(service_.WatchJob(
         *req, [writer](const v1::WatchJobEvent& ev) { return writer->Write(ev); }, [ctx] { return ctx->IsCancelled(); }));

@@ -337,6 +337,40 @@ void HttpGateway::Impl::Routes() {
     res.set_content(ply.str(), "application/octet-stream");
   });
 
+  // Cut files (docs/FABRICATION.md) of an iteration, made on request by geometry alone.
+  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/cut/(pattern\.svg|pattern\.dxf|patches\.svg|patches\.dxf|report\.json))",
+           [this](const httplib::Request& req, httplib::Response& res) {
+             int64_t id = 0;
+             if (!JobId(req, res, &id)) return;
+             long long n = 0;
+             if (!ParseInt(req.matches[2], -1, &n) || n > 1 << 30)
+               return SetError(res, 400, ServiceCode::kInvalidArgument, "iteration '" + std::string(req.matches[2]) + "' is not an integer >= -1");
+             v1::ExportDesignRequest r;
+             r.set_id(id);
+             r.set_iteration(static_cast<int>(n));
+             r.set_no_mirror(req.get_param_value("mirror") == "false");
+             for (const auto& [param, set] : std::initializer_list<std::pair<const char*, void (v1::ExportDesignRequest::*)(double)>>{
+                      {"minFeatureMm", &v1::ExportDesignRequest::set_min_feature_mm},
+                      {"seamAllowanceMm", &v1::ExportDesignRequest::set_seam_allowance_mm},
+                      {"sheetWidthMm", &v1::ExportDesignRequest::set_sheet_width_mm}})
+               if (req.has_param(param)) {
+                 char* end = nullptr;
+                 const std::string v = req.get_param_value(param);
+                 const double d = std::strtod(v.c_str(), &end);
+                 if (v.empty() || end != v.c_str() + v.size() || !(d >= 0))
+                   return SetError(res, 400, ServiceCode::kInvalidArgument, std::string(param) + " '" + v + "' is not a number >= 0");
+                 (r.*set)(d);
+               }
+             v1::ExportDesignResponse out;
+             if (ServiceStatus st = service->ExportDesign(r, &out); !st.ok()) return SetError(res, st);
+             const std::string name = req.matches[3];
+             const auto it = out.files().find(name);
+             if (it == out.files().end()) return SetError(res, 500, ServiceCode::kInternal, "the export made no " + name);
+             const std::string type = name.ends_with(".svg") ? "image/svg+xml" : name.ends_with(".json") ? "application/json" : "application/dxf";
+             res.set_header("Content-Disposition", "attachment; filename=\"job-" + std::to_string(id) + "-" + name + "\"");
+             res.set_content(it->second, type.c_str());
+           });
+
   http.Get(R"(/v1/jobs/([^/:]+)/garment/faces\.u32)", [this](const httplib::Request& req, httplib::Response& res) {
     v1::Garment g;
     if (!Garment(req, res, &g)) return;

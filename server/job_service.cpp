@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "core/scene/builtin_scenes.h"
+#include "job/fabrication_export.h"
 #include "proto/job_spec.h"
 #include "proto/records.h"
 #include "server/job_store.h"
@@ -412,6 +413,30 @@ ServiceStatus JobService::GetEvaluation(int64_t id, v1::DesignEvaluation* out) {
   Result<DesignEvaluation> e = ReadDesignEvaluation(path);
   if (!e.ok()) return Internal(e.status());
   *out = EvaluationToProto(*e);
+  return ServiceStatus::Ok();
+}
+
+ServiceStatus JobService::ExportDesign(const v1::ExportDesignRequest& req, v1::ExportDesignResponse* out) {
+  Impl& m = *impl_;
+  v1::Job job;
+  if (ServiceStatus st = m.FindJob(req.id(), &job); !st.ok()) return st;
+  const int k = req.iteration() < 0 ? job.iterations() - 1 : req.iteration();
+  if (k < 0 || k >= job.iterations())
+    return Error(ServiceCode::kNotFound, "job " + std::to_string(req.id()) + ": iteration " + std::to_string(req.iteration()) + " is not stored (" +
+                                             (job.iterations() ? "0.." + std::to_string(job.iterations() - 1) : "none yet") + ")");
+  Result<DesignFile> f = [&] {
+    std::lock_guard lock(m.commit_mu);
+    return ReadDesignFile(m.FilePath(req.id()), {.arrays = true, .only_iteration = k});
+  }();
+  if (!f.ok()) return Internal(f.status());
+  ExportOptions o;
+  if (req.has_min_feature_mm()) o.cleaning.min_feature_m = req.min_feature_mm() / 1000;
+  if (req.has_seam_allowance_mm()) o.sheet.seam_allowance_mm = req.seam_allowance_mm();
+  if (req.has_sheet_width_mm()) o.sheet.sheet_width_mm = req.sheet_width_mm();
+  o.sheet.mirror = !req.no_mirror();
+  Result<ExportFiles> files = ExportGeometry(f->header, f->iterations[k], o);
+  if (!files.ok()) return Error(ServiceCode::kInvalidArgument, "job " + std::to_string(req.id()) + ": " + files.message());
+  for (const auto& [name, contents] : files->files) (*out->mutable_files())[name] = contents;
   return ServiceStatus::Ok();
 }
 

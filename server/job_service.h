@@ -80,6 +80,8 @@ class JobService {
   ServiceStatus GetIteration(const v1::GetIterationRequest& request, v1::GetIterationResponse* response);
   // The finished design over the motion and beside the baselines (DIR/jobs/job-N.evaluation.h5).
   ServiceStatus GetEvaluation(int64_t id, v1::DesignEvaluation* evaluation);
+  // Cut files of one stored iteration, by geometry alone (job/fabrication_export.h, ExportGeometry).
+  ServiceStatus ExportDesign(const v1::ExportDesignRequest& request, v1::ExportDesignResponse* response);
   // Sends the job, its stored iterations from request.from_iteration(), then every new one and every
   // state change as they come, until the job ends (OK), `write` returns false (the client is gone:
   // OK) or `cancelled` returns true / the service stops (CANCELLED).

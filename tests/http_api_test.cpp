@@ -291,6 +291,20 @@ TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
   ASSERT_TRUE(no_baseline);
   EXPECT_EQ(no_baseline->status, 404);
 
+  // Cut files, made on request by geometry alone.
+  auto cut = cli.Get("/v1/jobs/" + id + "/iterations/" + n + "/cut/patches.svg");
+  ASSERT_TRUE(cut && cut->status == 200) << (cut ? cut->body : "no response");
+  EXPECT_EQ(cut->get_header_value("Content-Type"), "image/svg+xml");
+  EXPECT_NE(cut->body.find("width=\"305mm\""), std::string::npos);
+  auto cut_report = cli.Get("/v1/jobs/" + id + "/iterations/" + n + "/cut/report.json?sheetWidthMm=500&mirror=false");
+  ASSERT_TRUE(cut_report && cut_report->status == 200) << (cut_report ? cut_report->body : "no response");
+  EXPECT_NE(cut_report->body.find("\"not simulated\""), std::string::npos) << "the server never simulates";
+  EXPECT_NE(cut_report->body.find("\"pieces\""), std::string::npos);
+  auto bad_cut = cli.Get("/v1/jobs/" + id + "/iterations/" + n + "/cut/patches.svg?sheetWidthMm=wide");
+  ASSERT_TRUE(bad_cut);
+  EXPECT_EQ(bad_cut->status, 400);
+  EXPECT_NE(bad_cut->body.find("sheetWidthMm 'wide'"), std::string::npos) << bad_cut->body;
+
   // The design file of an ended job, byte for byte as the server stores it.
   auto h5 = cli.Get("/v1/jobs/" + id + "/design-file");
   ASSERT_TRUE(h5 && h5->status == 200);

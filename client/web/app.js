@@ -328,6 +328,18 @@ function renderDownloads() {
   ply.download = `job-${id}-iteration-${state.shown}.ply`;
   ply.textContent = `Download iteration ${state.shown} (PLY)`;
   d.append(ply);
+  // Cut files for fabrication (made on request: a second or two).
+  const cut = document.createElement('span');
+  cut.textContent = 'Cut files: ';
+  for (const name of ['pattern.svg', 'patches.svg', 'pattern.dxf', 'patches.dxf', 'report.json']) {
+    const a = document.createElement('a');
+    a.href = `/v1/jobs/${id}/iterations/${state.shown}/cut/${name}`;
+    a.download = `job-${id}-iteration-${state.shown}-${name}`;
+    a.textContent = name;
+    a.setAttribute('aria-label', `Download the cut file ${name} of iteration ${state.shown}`);
+    cut.append(a, ' ');
+  }
+  d.append(cut);
   const ended = state.job && !['QUEUED', 'RUNNING'].includes(state.job.state);
   if (ended) {
     const h5 = document.createElement('a');

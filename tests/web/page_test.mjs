@@ -151,6 +151,13 @@ try {
   const ply = fs.readFileSync(plyPath);
   check(ply.subarray(0, 4).toString() === 'ply\n' && ply.includes('element face'), `the PLY download is a PLY file (${download.suggestedFilename()}, ${ply.length} bytes)`);
 
+  // The cut files of the shown iteration.
+  const [cutDownload] = await Promise.all([page.waitForEvent('download', { timeout: 60000 }), page.click('#downloads a[href$="cut/patches.svg"]')]);
+  const cutPath = path.join(artifacts, cutDownload.suggestedFilename());
+  await cutDownload.saveAs(cutPath);
+  const cutSvg = fs.readFileSync(cutPath, 'utf8');
+  check(/<svg[^>]*width="305mm"/.test(cutSvg) && cutSvg.includes('data-layer="1"'), `the patches' cut file is an SVG in mm (${cutDownload.suggestedFilename()})`);
+
   // A second, long job: cancel it from the jobs list.
   await page.fill('#max-iterations', '400');
   await page.fill('#budget', '0.05');
