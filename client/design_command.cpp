@@ -1,5 +1,6 @@
 #include "client/design_command.h"
 
+#include "client/service_commands.h"
 #include "job/fabrication_export.h"
 
 #include <unistd.h>
@@ -399,13 +400,15 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
   struct ExportFlags {
     std::string file, out, formats = "svg,dxf";
     std::vector<std::string> body;
+    std::string server = DefaultServer();
     int iteration = -1;
     double min_feature_mm = 3, seam_allowance_mm = 10, sheet_width_mm = 305;
     bool no_mirror = false, json = false;
   };
   auto ex = std::make_shared<ExportFlags>();
   CLI::App* xp = app.add_subcommand("export", "Cut files for fabrication: pattern pieces and reinforcement patches (SVG, DXF in mm) from a stored design");
-  xp->add_option("file", ex->file, "Design file (HDF5), or a scene file or built-in scene name to export its own design")->required();
+  xp->add_option("file", ex->file, "Design file (HDF5); a job id on the design server (--server); or a scene file or built-in scene name to export its own design")->required();
+  xp->add_option("--server", ex->server, "With a job id: the design server, host:port")->capture_default_str();
   xp->add_option("--body", ex->body, "With a built-in scene: a measurement of the parametric body, name=value in SI (repeatable)");
   xp->add_option("--out", ex->out, "Output folder (created if missing)")->required();
   xp->add_option("--iteration", ex->iteration, "Which iteration's design (default: the last within the budget)");
@@ -427,6 +430,13 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
     std::stringstream list(ex->formats);
     for (std::string f; std::getline(list, f, ',');)
       if (!f.empty()) o.formats.push_back(f);
+    // A job on the design server (a number that is no file).
+    if (!ex->file.empty() && ex->file.find_first_not_of("0123456789") == std::string::npos && !std::filesystem::exists(ex->file)) {
+      *exit_code = RunExportJob({.server = ex->server, .out = ex->out, .job = std::stoll(ex->file), .iteration = ex->iteration,
+                                 .min_feature_mm = ex->min_feature_mm, .seam_allowance_mm = ex->seam_allowance_mm,
+                                 .sheet_width_mm = ex->sheet_width_mm, .no_mirror = ex->no_mirror, .json = ex->json});
+      return;
+    }
     // A design file, or a scene (file or built-in name) with its own design.
     Result<ExportReport> r = Status::Error("");
     if (std::filesystem::path(ex->file).extension() == ".h5") {

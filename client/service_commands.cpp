@@ -3,6 +3,7 @@
 #include <grpcpp/grpcpp.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -19,18 +20,20 @@
 #include "core/util/termination.h"
 #include "kgd/v1/kgd.grpc.pb.h"
 #include "proto/job_spec.h"
+#include "job/fabrication_export.h"
 #include "proto/records.h"
 #include "server/design_server.h"
 #include "server/http_gateway.h"
 #include "worker/design_worker.h"
 
 namespace kgd::cli {
-namespace {
 
 std::string DefaultServer() {
   const char* env = std::getenv("KGD_SERVER");
   return env && *env ? env : "127.0.0.1:7447";
 }
+
+namespace {
 
 std::unique_ptr<v1::DesignService::Stub> Connect(const std::string& server) {
   grpc::ChannelArguments args;
@@ -482,6 +485,36 @@ void AddServiceCommands(CLI::App& app, int* exit_code) {
   gt->add_option("--server", c->server, "The design server, host:port")->capture_default_str();
   gt->add_flag("--json", c->json, "Print the metrics as JSON");
   gt->callback([c, exit_code] { *exit_code = RunGet(c->server, c->job, c->iteration, c->out, c->json); });
+}
+
+int RunExportJob(const ExportJobRequest& r) {
+  auto stub = Connect(r.server);
+  grpc::ClientContext ctx;
+  SetDeadline(&ctx, 300);
+  v1::ExportDesignRequest req;
+  req.set_id(r.job);
+  req.set_iteration(r.iteration);
+  req.set_min_feature_mm(r.min_feature_mm);
+  req.set_seam_allowance_mm(r.seam_allowance_mm);
+  req.set_sheet_width_mm(r.sheet_width_mm);
+  req.set_no_mirror(r.no_mirror);
+  v1::ExportDesignResponse resp;
+  const grpc::Status st = stub->ExportDesign(&ctx, req, &resp);
+  if (!st.ok()) return FailRpc("export", r.server, st);
+  std::vector<std::pair<std::string, std::string>> files(resp.files().begin(), resp.files().end());
+  std::sort(files.begin(), files.end());
+  if (Status w = WriteExportFiles(r.out, files); !w.ok()) {
+    std::fprintf(stderr, "kgd export: %s\n", w.message().c_str());
+    return 2;
+  }
+  if (r.json) {
+    for (const auto& [name, contents] : files)
+      if (name == "report.json") std::printf("%s", contents.c_str());
+  } else {
+    for (const auto& [name, contents] : files) std::printf("wrote %s\n", (std::filesystem::path(r.out) / name).string().c_str());
+    std::printf("(made by the server by geometry alone; `kgd export` on the job's design file also simulates the cleaned design)\n");
+  }
+  return 0;
 }
 
 }  // namespace kgd::cli

@@ -8,9 +8,23 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <cstdint>
+#include <string>
 
 namespace kgd::cli {
 
 void AddServiceCommands(CLI::App& app, int* exit_code);
+
+// `kgd export JOB`: the cut files of a stored job's iteration from the design server (ExportDesign, by
+// geometry alone), written into `out` all at once. Returns the exit code.
+struct ExportJobRequest {
+  std::string server, out;
+  int64_t job = 0;
+  int iteration = -1;
+  double min_feature_mm = 3, seam_allowance_mm = 10, sheet_width_mm = 305;
+  bool no_mirror = false, json = false;
+};
+int RunExportJob(const ExportJobRequest& request);
+std::string DefaultServer();
 
 }  // namespace kgd::cli

@@ -127,8 +127,9 @@ Status CheckReinforced(const std::vector<uint8_t>& design, const std::vector<uin
   return Status::Error("export: " + label + " has no reinforced face: nothing to cut");
 }
 
-// Writes every file under a temporary name, then renames them all: all the files or none.
-Status WriteAll(const std::string& out_dir, const Files& files) {
+}  // namespace
+
+Status WriteExportFiles(const std::string& out_dir, const std::vector<std::pair<std::string, std::string>>& files) {
   std::error_code ec;
   fs::create_directories(out_dir, ec);
   if (ec) return Status::Error("export: cannot create " + out_dir + ": " + ec.message());
@@ -157,6 +158,8 @@ Status WriteAll(const std::string& out_dir, const Files& files) {
   }
   return Status::Ok();
 }
+
+namespace {
 
 Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& strain, double full_density, const std::string& label,
                                        const std::string& out_dir, const ExportOptions& o, ExportReport r,
@@ -192,7 +195,7 @@ Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& s
   for (const auto& [name, contents] : files) r.files.push_back((fs::path(out_dir) / name).string());
   r.files.push_back((fs::path(out_dir) / "report.json").string());
   files.push_back({"report.json", ExportReportJson(r)});
-  KGD_RETURN_IF_ERROR(WriteAll(out_dir, files));
+  KGD_RETURN_IF_ERROR(WriteExportFiles(out_dir, files));
   return r;
 }
 

@@ -58,6 +58,10 @@ struct ExportFiles {
 };
 Result<ExportFiles> ExportGeometry(const DesignFileHeader& header, const BesoIteration& iteration, const ExportOptions& options);
 
+// Writes `files` (name, contents) into `out_dir` (created if missing), each under a temporary name, then
+// renames them all: all the files or none.
+Status WriteExportFiles(const std::string& out_dir, const std::vector<std::pair<std::string, std::string>>& files);
+
 // The report as JSON (SI units, and mm where the key says so).
 std::string ExportReportJson(const ExportReport& report);
 

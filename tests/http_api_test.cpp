@@ -50,7 +50,8 @@ class HttpService {
     dir_ = (fs::temp_directory_path() / ("kgd_http_api_test_" + std::to_string(getpid()))).string();
     fs::remove_all(dir_);
     fs::create_directories(dir_);
-    const std::string grpc = "127.0.0.1:" + std::to_string(FreePort());
+    grpc_ = "127.0.0.1:" + std::to_string(FreePort());
+    const std::string& grpc = grpc_;
     port_ = FreePort();
     server_ = Process::Spawn({KGD_SERVER_BINARY, "--data", dir_ + "/data", "--listen", grpc, "--http", "127.0.0.1:" + std::to_string(port_),
                               "--max-upload-mb", "1"},
@@ -77,9 +78,10 @@ class HttpService {
   }
   int port() const { return port_; }
   const std::string& dir() const { return dir_; }
+  const std::string& grpc() const { return grpc_; }
 
  private:
-  std::string dir_;
+  std::string dir_, grpc_;
   int port_ = 0;
   bool ok_ = false;
   Process server_, worker_;
@@ -304,6 +306,17 @@ TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
   ASSERT_TRUE(bad_cut);
   EXPECT_EQ(bad_cut->status, 400);
   EXPECT_NE(bad_cut->body.find("sheetWidthMm 'wide'"), std::string::npos) << bad_cut->body;
+
+  // The same files through the CLI over gRPC: `kgd export JOB`.
+  const std::string out = Service().dir() + "/cut-" + id;
+  const auto exported = cli_test::Kgd("export " + id + " --iteration " + n + " --server " + Service().grpc() + " --out " + out);
+  ASSERT_EQ(exported.exit_code, 0) << exported.output;
+  std::ifstream svg(out + "/patches.svg");
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(svg), {}), cut->body) << "the same file as the HTTP download";
+  const auto unknown = cli_test::Kgd("export 987654 --server " + Service().grpc() + " --out " + out + "-unknown");
+  EXPECT_EQ(unknown.exit_code, 2) << unknown.output;
+  EXPECT_NE(unknown.output.find("987654"), std::string::npos) << unknown.output;
+  EXPECT_FALSE(fs::exists(out + "-unknown"));
 
   // The design file of an ended job, byte for byte as the server stores it.
   auto h5 = cli.Get("/v1/jobs/" + id + "/design-file");
