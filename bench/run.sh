@@ -7,3 +7,8 @@ nproc; lscpu | grep -E "Model name|^CPU\(s\)" || true
 "$build/bench/body_benchmark" --benchmark_counters_tabular=true "${@:2}"
 "$build/bench/design_benchmark" --benchmark_counters_tabular=true "${@:2}"
 "$build/bench/service_benchmark"
+if [ -x /usr/bin/chromium ] && [ -d client/web/node_modules/playwright-core ]; then
+  node bench/web_benchmark.mjs --kgd "$build/client/kgd"
+else
+  echo "web_benchmark: skipped (needs Debian's chromium and npm ci --prefix client/web; scripts/setup.sh --browser installs both)"
+fi

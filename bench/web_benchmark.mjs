@@ -46,16 +46,17 @@ function request(method, p, body) {
 
 try {
   // -- sse ---------------------------------------------------------------------------------------------
-  const agent = new http.Agent({ keepAlive: true, maxSockets: watchers + 4 });
+  const agent = new http.Agent({ maxSockets: watchers + 4 });
+  let failed = 0, complete = 0;
   const job = await request('POST', '/v1/jobs', { builtinScene: 'arm_flexion', optimizer: { maxIterations: iterations }, label: 'bench' });
   const latencies = [];
   let open = 0;
   const done = [];
   for (let w = 0; w < watchers; ++w) {
     done.push(new Promise((resolve) => {
-      http.get(`${base}/v1/jobs/${job.id}:watch?view=metrics`, { agent }, (res) => {
+      const req = http.get(`${base}/v1/jobs/${job.id}:watch?view=metrics`, { agent }, (res) => {
         ++open;
-        let buffer = '';
+        let buffer = '', events = 0;
         res.on('data', (chunk) => {
           const now = Date.now() / 1000;
           buffer += chunk;
@@ -64,17 +65,20 @@ try {
             const block = buffer.slice(0, end);
             buffer = buffer.slice(end + 2);
             if (!block.includes('event: iteration')) continue;
+            ++events;
             const data = JSON.parse(block.split('\n').find((l) => l.startsWith('data: ')).slice(6));
             const t = data.metrics.reportTimeS;
             if (t && data.metrics.iteration > 0) latencies.push(1000 * (now - t));
           }
         });
-        res.on('end', resolve);
+        res.on('end', () => { if (events === iterations + 1) ++complete; resolve(); });
+        res.on('error', (e) => { ++failed; console.error(`watcher: ${e.message}`); resolve(); });
       });
+      req.on('error', (e) => { ++failed; console.error(`watcher: ${e.message}`); resolve(); });
     }));
   }
   await Promise.all(done);
-  console.log(`sse: ${watchers} watchers (${open} connected), ${iterations} iterations: p50 ${percentile(latencies, 0.5).toFixed(1)} ms, p99 ${percentile(latencies, 0.99).toFixed(1)} ms over ${latencies.length} events`);
+  console.log(`sse: ${watchers} watchers (${open} connected, ${complete} saw every iteration, ${failed} failed), ${iterations} iterations: p50 ${percentile(latencies, 0.5).toFixed(1)} ms, p99 ${percentile(latencies, 0.99).toFixed(1)} ms over ${latencies.length} events`);
 
   // -- page --------------------------------------------------------------------------------------------
   const browser = await chromium.launch({ executablePath: process.env.KGD_CHROMIUM || '/usr/bin/chromium',
@@ -95,7 +99,7 @@ try {
   await page.goto(base + '/');
   await page.waitForFunction(() => window.kgd);
   const times = await page.evaluate(() => {
-    // A 140 x 200 grid rolled into a tube: 28,000 vertices, 55,182 faces.
+    // A 140 x 200 grid rolled into a tube: 28,000 vertices, 55,720 faces.
     const nu = 140, nv = 200, n = nu * nv;
     const faces = [];
     for (let j = 0; j + 1 < nv; ++j)

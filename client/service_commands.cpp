@@ -430,6 +430,8 @@ void AddServiceCommands(CLI::App& app, int* exit_code) {
   sv->add_flag("--no-http", serve->no_http, "gRPC only: no web page, no HTTP API");
   sv->add_option("--web", serve->http.web_dir, "Folder of the web page's files")->capture_default_str();
   sv->add_option("--max-upload-mb", serve->max_upload_mb, "Largest HTTP request body accepted (MiB)")->check(CLI::PositiveNumber)->capture_default_str();
+  sv->add_option("--max-watchers", serve->http.max_watchers, "Open HTTP watch streams (Server-Sent Events) served at once")
+      ->check(CLI::PositiveNumber)->capture_default_str();
   sv->callback([serve, exit_code] { *exit_code = RunServe(*serve); });
 
   auto submit = std::make_shared<SubmitOptions>();

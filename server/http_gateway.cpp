@@ -15,9 +15,37 @@
 #include "proto/records.h"
 // After Eigen (through the headers above): a macro of the socket headers it pulls in breaks Eigen's.
 #include <httplib.h>
+#include <sys/socket.h>
+#include <netinet/in.h>
 
 namespace kgd::server {
 namespace {
+
+// Debian's cpp-httplib listens with a backlog of 5 (compiled in): a burst of connections, such as
+// a hundred watchers opening at once, overflows it and the kernel drops SYNs, which clients retry
+// seconds later or give up on. Listening again on the same socket widens the queue (Linux keeps the
+// socket and takes the new backlog); the socket is the one of this process listening on `port`.
+void WidenListenBacklog(int port) {
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc/self/fd", ec)) {
+    int fd = -1;
+    try {
+      fd = std::stoi(entry.path().filename().string());
+    } catch (...) {
+      continue;
+    }
+    int listening = 0;
+    socklen_t len = sizeof(listening);
+    if (getsockopt(fd, SOL_SOCKET, SO_ACCEPTCONN, &listening, &len) != 0 || !listening) continue;
+    sockaddr_storage addr{};
+    socklen_t alen = sizeof(addr);
+    if (getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &alen) != 0) continue;
+    const int bound = addr.ss_family == AF_INET    ? ntohs(reinterpret_cast<sockaddr_in*>(&addr)->sin_port)
+                      : addr.ss_family == AF_INET6 ? ntohs(reinterpret_cast<sockaddr_in6*>(&addr)->sin6_port)
+                                                   : -1;
+    if (bound == port) ::listen(fd, SOMAXCONN);
+  }
+}
 
 namespace pbu = google::protobuf::util;
 using Clock = std::chrono::steady_clock;
@@ -127,6 +155,7 @@ struct HttpGateway::Impl {
   httplib::Server http;
   std::thread listener;
   std::atomic<bool> stopping{false};
+  std::atomic<int> watchers{0};
   int port = 0;
   std::string host;
 
@@ -461,6 +490,11 @@ void HttpGateway::Impl::Watch(const httplib::Request& req, httplib::Response& re
   // An unknown job is an error response, not an empty stream.
   v1::Job job;
   if (ServiceStatus st = service->GetJob(id, &job); !st.ok()) return SetError(res, st);
+  if (watchers.fetch_add(1) >= options.max_watchers) {
+    --watchers;
+    return SetError(res, 429, ServiceCode::kResourceExhausted,
+                    "the server has its limit of " + std::to_string(options.max_watchers) + " open watches (--max-watchers); try again later");
+  }
 
   res.set_header("Cache-Control", "no-cache");
   res.set_header("X-Accel-Buffering", "no");
@@ -489,7 +523,7 @@ void HttpGateway::Impl::Watch(const httplib::Request& req, httplib::Response& re
         });
     sink.done();
     return true;
-  });
+  }, [this](bool) { --watchers; });
 }
 
 Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService* service, const HttpOptions& options) {
@@ -506,8 +540,20 @@ Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService* service, con
   m.options = options;
   m.host = options.address.substr(0, colon);
   httplib::Server& http = m.http;
-  // Each watch holds a thread for its whole life.
-  http.new_task_queue = [] { return new httplib::ThreadPool(64); };
+  // Each watch holds a thread for its whole life; the other requests keep threads of their own.
+  http.new_task_queue = [n = static_cast<size_t>(std::max(options.max_watchers, 0) + 16)] { return new httplib::ThreadPool(n); };
+  // Debian's cpp-httplib compresses with Brotli at its slowest quality whenever a client accepts it
+  // (1.3 s for three.js); gzip costs 2 % of that, so the gateway hides "br" from the library.
+  http.set_pre_routing_handler([](const httplib::Request& req, httplib::Response&) {
+    auto& headers = const_cast<httplib::Request&>(req).headers;  // the library's own, non-const Request
+    auto it = headers.find("Accept-Encoding");
+    if (it != headers.end() && it->second.find("br") != std::string::npos) it->second = it->second.find("gzip") != std::string::npos ? "gzip" : "";
+    return httplib::Server::HandlerResponse::Unhandled;
+  });
+  // The page's libraries change only with client/web/package-lock.json.
+  http.set_file_request_handler([](const httplib::Request& req, httplib::Response& res) {
+    res.set_header("Cache-Control", req.path.rfind("/vendor/", 0) == 0 ? "public, max-age=86400" : "no-cache");
+  });
   http.set_payload_max_length(options.max_upload_bytes);
   http.set_keep_alive_max_count(100);
   for (const auto& [ext, type] : std::initializer_list<std::pair<const char*, const char*>>{
@@ -550,6 +596,7 @@ Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService* service, con
       return Status::Error("--http " + options.address + ": cannot bind (in use, or not an address of this machine?)");
     m.port = static_cast<int>(port);
   }
+  WidenListenBacklog(m.port);
   m.listener = std::thread([&m] { m.http.listen_after_bind(); });
   return g;
 }

@@ -45,6 +45,7 @@ struct HttpOptions {
   std::string web_dir;                     // the page's static files (client/web); empty: API only
   size_t max_upload_bytes = 64 << 20;      // larger request bodies get 413 RESOURCE_EXHAUSTED
   double keepalive_s = 10;                 // an SSE comment this often keeps idle watches alive
+  int max_watchers = 200;                  // open :watch streams; one more gets 429 RESOURCE_EXHAUSTED
 };
 
 class HttpGateway {

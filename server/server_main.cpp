@@ -27,6 +27,8 @@ int main(int argc, char** argv) {
   app.add_option("--http", http.address, "host:port of the web page and the HTTP/JSON API (default: none; port 0: any free port)");
   app.add_option("--web", http.web_dir, "Folder of the web page's files")->capture_default_str();
   app.add_option("--max-upload-mb", max_upload_mb, "Largest HTTP request body accepted (MiB)")->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--max-watchers", http.max_watchers, "Open HTTP watch streams (Server-Sent Events) served at once")
+      ->check(CLI::PositiveNumber)->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   http.max_upload_bytes = static_cast<size_t>(max_upload_mb * (1 << 20));
   o.max_message_bytes = static_cast<int>(max_message_mb * (1 << 20));

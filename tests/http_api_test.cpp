@@ -5,6 +5,7 @@
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
@@ -54,7 +55,7 @@ class HttpService {
     const std::string& grpc = grpc_;
     port_ = FreePort();
     server_ = Process::Spawn({KGD_SERVER_BINARY, "--data", dir_ + "/data", "--listen", grpc, "--http", "127.0.0.1:" + std::to_string(port_),
-                              "--max-upload-mb", "1"},
+                              "--max-upload-mb", "1", "--max-watchers", "3"},
                              dir_ + "/server.log");
     worker_ = Process::Spawn({KGD_WORKER_BINARY, "--server", grpc, "--name", "w0"}, dir_ + "/worker.log");
     ok_ = WaitFor([&] { return Log().find("http on") != std::string::npos; }, 30);
@@ -447,9 +448,47 @@ TEST_F(HttpApi, ThePageAndItsLibrariesAreServed) {
   EXPECT_EQ(app->get_header_value("Content-Type"), "text/javascript");
   if (!fs::exists(fs::path(KGD_SOURCE_DIR) / "client/web/node_modules/three"))
     GTEST_SKIP() << "client/web/node_modules is not installed (npm ci --prefix client/web); the page's libraries are not served";
-  auto three = cli.Get("/vendor/three/build/three.module.js");
+  auto three = cli.Get("/vendor/three/build/three.module.min.js");
   ASSERT_TRUE(three && three->status == 200);
   EXPECT_EQ(three->get_header_value("Content-Type"), "text/javascript");
+  EXPECT_EQ(three->get_header_value("Cache-Control"), "public, max-age=86400");
+  // A browser accepts Brotli too; the server answers with gzip (or nothing), never the slow Brotli.
+  httplib::Client raw("127.0.0.1", Service().port());
+  raw.set_decompress(false);
+  auto packed = raw.Get("/vendor/three/build/three.module.min.js", {{"Accept-Encoding", "gzip, deflate, br"}});
+  ASSERT_TRUE(packed && packed->status == 200);
+  EXPECT_NE(packed->get_header_value("Content-Encoding"), "br");
+  EXPECT_LT(packed->body.size(), three->body.size()) << "sent uncompressed";
+}
+
+TEST_F(HttpApi, WatchesBeyondTheLimitAreRefusedUntilOneCloses) {
+  // The fixture's server takes --max-watchers 3.
+  const std::string id = std::to_string(Create(SleeveJob(400, "many watchers")).id());
+  std::atomic<bool> close{false};
+  std::atomic<int> open{0};
+  std::vector<std::thread> watches;
+  for (int w = 0; w < 3; ++w)
+    watches.emplace_back([&] {
+      bool counted = false;
+      Service().Client().Get("/v1/jobs/" + id + ":watch?view=metrics", [&](const char*, size_t) {
+        if (!counted) ++open, counted = true;
+        return !close.load();
+      });
+    });
+  ASSERT_TRUE(WaitFor([&] { return open == 3; }, 60));
+  auto refused = Service().Client().Get("/v1/jobs/" + id + ":watch");
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 429);
+  EXPECT_NE(refused->body.find("RESOURCE_EXHAUSTED"), std::string::npos) << refused->body;
+  EXPECT_NE(refused->body.find("--max-watchers"), std::string::npos) << refused->body;
+  close = true;
+  Service().Client().Post("/v1/jobs/" + id + ":cancel", "", "application/json");
+  for (auto& t : watches) t.join();
+  // The closed watches free their places.
+  EXPECT_TRUE(WaitFor([&] {
+    auto again = Service().Client().Get("/v1/jobs/" + id + ":watch?view=metrics");
+    return again && again->status == 200;
+  }, 60));
 }
 
 }  // namespace
