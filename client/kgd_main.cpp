@@ -6,8 +6,10 @@
 #include "client/design_command.h"
 #include "client/service_commands.h"
 #include "client/simulate_command.h"
+#include "core/util/pinned_kernels.h"
 
 int main(int argc, char** argv) {
+  kgd::PinNumericKernels(argv);  // the same designs on every machine (may execute the program again)
   CLI::App app{"kgd: kinesthetic garment designer"};
   app.require_subcommand(1);
   int exit_code = 0;

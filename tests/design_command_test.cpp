@@ -13,6 +13,8 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 #include "store/design_file.h"
 
@@ -90,6 +92,57 @@ TEST_F(DesignCommand, RunsDeterministicallyAndResumesBitForBit) {
   r = Kgd("designs --json " + Path("a.h5"));
   ASSERT_EQ(r.exit_code, 0);
   EXPECT_NE(r.output.find("\"scene\":\"pull_test_all_cloth\""), std::string::npos) << r.output;
+}
+
+// kgd under the environment of another machine: OpenBLAS told to use another CPU's kernels, glibc's
+// libm without (or with) its FMA variants. `env` is prepended to the command.
+CommandRun KgdOn(const std::string& env, const std::string& args) {
+  FILE* p = popen(("env " + env + " " + KGD_BINARY + " " + args + " 2>&1").c_str(), "r");
+  std::string out;
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) out.append(buf.data(), n);
+  const int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), out};
+}
+
+// A quick job whose solves go through OpenBLAS (CHOLMOD's supernodes) and libm on every iteration.
+const std::string kCpuJob = "design sleeve_on_limb";
+
+TEST_F(DesignCommand, AJobGivesTheSameDesignsBitForBitOnEveryCpuAndResumedOnAnother) {
+  // Core types this CPU can run (forcing a core type the CPU lacks would fault).
+  std::vector<std::string> cores = {"Prescott", "Nehalem"};
+  if (__builtin_cpu_supports("avx")) cores.push_back("Sandybridge");
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) cores.push_back("Haswell");
+  const std::string native = cores.back();
+  const std::string other = cores.size() > 2 ? cores[cores.size() - 2] : "Prescott";
+  auto run = [&](const std::string& env, const std::string& args) {
+    const CommandRun r = KgdOn(env, args);
+    EXPECT_EQ(r.exit_code, 0) << env << " " << args << "\n" << r.output;
+  };
+  run("OPENBLAS_CORETYPE=" + native, kCpuJob + " --iterations 30 --out " + Path("native.h5"));
+  run("OPENBLAS_CORETYPE=" + other + " GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2", kCpuJob + " --iterations 30 --out " + Path("other.h5"));
+  run("OPENBLAS_CORETYPE=Prescott", kCpuJob + " --iterations 30 --out " + Path("prescott.h5"));
+  // Stopped after iteration 12 on one machine, resumed on another.
+  run("OPENBLAS_CORETYPE=" + native, kCpuJob + " --iterations 12 --out " + Path("resumed.h5"));
+  run("OPENBLAS_CORETYPE=" + other + " GLIBC_TUNABLES=glibc.cpu.hwcaps=-FMA", "design --resume " + Path("resumed.h5") + " --iterations 30");
+  const Result<DesignFile> a = ReadDesignFile(Path("native.h5")), b = ReadDesignFile(Path("other.h5")),
+                           c = ReadDesignFile(Path("prescott.h5")), d = ReadDesignFile(Path("resumed.h5"));
+  ASSERT_TRUE(a.ok() && b.ok() && c.ok() && d.ok());
+  ASSERT_EQ(a->iterations.size(), 31u);
+  ExpectSameDesigns(*a, *b);
+  ExpectSameDesigns(*a, *c);
+  ExpectSameDesigns(*a, *d);
+
+  // The variation is real: with the machine's own kernels (KGD_NATIVE_KERNELS), the same job rounds
+  // differently under another CPU's kernels. Only where this CPU has FMA, which the pin takes away.
+  if (native != "Haswell") GTEST_SKIP() << "this CPU has no AVX2/FMA: its native kernels are the pinned ones' kind";
+  run("KGD_NATIVE_KERNELS=1 OPENBLAS_CORETYPE=Haswell", kCpuJob + " --iterations 30 --out " + Path("free_haswell.h5"));
+  run("KGD_NATIVE_KERNELS=1 OPENBLAS_CORETYPE=Prescott", kCpuJob + " --iterations 30 --out " + Path("free_prescott.h5"));
+  const Result<DesignFile> e = ReadDesignFile(Path("free_haswell.h5")), f = ReadDesignFile(Path("free_prescott.h5"));
+  ASSERT_TRUE(e.ok() && f.ok());
+  bool differ = e->iterations.size() != f->iterations.size();
+  for (size_t k = 0; !differ && k < e->iterations.size(); ++k) differ = e->iterations[k].energy_J != f->iterations[k].energy_J;
+  EXPECT_TRUE(differ) << "unpinned kernels gave identical results: the test's machines are not different enough";
 }
 
 TEST_F(DesignCommand, CtrlCStopsCleanlyAndTheRunResumes) {

@@ -4,9 +4,11 @@
 #include <cstdio>
 
 #include "core/util/termination.h"
+#include "core/util/pinned_kernels.h"
 #include "worker/design_worker.h"
 
 int main(int argc, char** argv) {
+  kgd::PinNumericKernels(argv);  // the same designs on every machine (may execute the program again)
   kgd::worker::WorkerOptions o;
   CLI::App app("kgd-worker: runs kinesthetic garment design jobs for a kgd-server");
   app.add_option("--server", o.server, "The server, host:port")->capture_default_str();
