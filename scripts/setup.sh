@@ -19,6 +19,7 @@ PACKAGES=(
   libbenchmark-dev         # benchmarks in bench/
   libcpp-httplib-dev       # the HTTP door of the service (JSON API, Server-Sent Events, the web page)
   libcgal-dev              # pattern pieces: least-squares conformal maps (Surface_mesh_parameterization)
+  prometheus-cpp-dev       # the service's figures at /metrics (Prometheus text format)
 )
 
 # --browser: also Debian's chromium, for the web page's browser tests (`make test` passes it).

@@ -237,6 +237,9 @@ struct HttpGateway::Impl {
 };
 
 void HttpGateway::Impl::Routes() {
+  http.Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
+    res.set_content(service->MetricsText(), "text/plain; version=0.0.4; charset=utf-8");
+  });
   http.Get("/v1/scenes", [this](const httplib::Request&, httplib::Response& res) {
     v1::ListScenesResponse out;
     if (ServiceStatus st = service->ListScenes(&out); !st.ok()) return SetError(res, st);

@@ -4,6 +4,7 @@
 //   {"error": {"code": 404, "status": "NOT_FOUND", "message": "job 7 does not exist"}}
 // with the gRPC status name. Resources (Google API style):
 //
+//   GET  /metrics                                 the service's figures, Prometheus text format (server/service_metrics.h)
 //   GET  /v1/scenes                               ListScenesResponse
 //   GET  /v1/jobs?pageSize=&pageToken=&state=     ListJobsResponse (state: QUEUED, RUNNING, ...)
 //   POST /v1/jobs                                 Job; body: a JobSpec (application/json), or

@@ -16,6 +16,7 @@
 #include "proto/job_spec.h"
 #include "proto/records.h"
 #include "server/job_store.h"
+#include "server/service_metrics.h"
 #include "store/design_file.h"
 
 namespace kgd::server {
@@ -59,6 +60,7 @@ struct JobService::Impl {
     std::unique_ptr<DesignFileWriter> writer;
   };
   std::map<int64_t, OpenFile> files;
+  ServiceMetrics metrics;
 
   // Anything a watcher or a waiting worker may care about bumps `version`.
   std::mutex event_mu;
@@ -171,8 +173,13 @@ struct JobService::Impl {
                            std::to_string(w.num_iterations()) + " stored");
     Result<BesoIteration> it_rec = RecordFromProto(record, w.faces(), w.vertices());
     if (!it_rec.ok()) return it_rec.status();
+    const auto t0 = std::chrono::steady_clock::now();
     KGD_RETURN_IF_ERROR(w.Append(*it_rec));
+    const auto t1 = std::chrono::steady_clock::now();
     KGD_RETURN_IF_ERROR(store->AppendIteration(job_id, lease_id, record.metrics(), record.design()));
+    const auto t2 = std::chrono::steady_clock::now();
+    metrics.IterationStored(record.metrics().total_s(), record.metrics().report_time_s(), std::chrono::duration<double>(t1 - t0).count(),
+                            std::chrono::duration<double>(t2 - t1).count());
     auto shared = std::make_shared<v1::IterationRecord>();
     *shared->mutable_metrics() = record.metrics();
     shared->set_design(record.design());
@@ -247,6 +254,7 @@ struct JobService::Impl {
         for (int64_t id : expired) files.erase(id);
       }
       for (int64_t id : expired) Log("job " + std::to_string(id) + ": the worker's lease expired");
+      if (!expired.empty()) metrics.LeasesExpired(static_cast<int>(expired.size()));
       if (!expired.empty()) Notify();
     }
   }
@@ -282,8 +290,19 @@ ServiceStatus JobService::CreateJob(const v1::CreateJobRequest& req, v1::Job* ou
   if (!job.ok() || !*job) return Internal(job.status());
   *out = **job;
   m.Log("job " + std::to_string(*id) + " queued");
+  m.metrics.JobCreated();
   m.Notify();
   return ServiceStatus::Ok();
+}
+
+std::string JobService::MetricsText() {
+  std::map<std::string, double> by_state;
+  for (int s = v1::JobState_MIN; s <= v1::JobState_MAX; ++s)
+    if (v1::JobState_IsValid(s) && s != v1::JOB_STATE_UNSPECIFIED) by_state[v1::JobState_Name(static_cast<v1::JobState>(s))] = 0;
+  const std::map<v1::JobState, int64_t> counts = impl_->store->CountByState();
+  for (const auto& [state, n] : counts) by_state[v1::JobState_Name(state)] = static_cast<double>(n);
+  const auto queued = counts.find(v1::QUEUED);
+  return impl_->metrics.Text(by_state, queued == counts.end() ? 0 : static_cast<double>(queued->second));
 }
 
 ServiceStatus JobService::ListScenes(v1::ListScenesResponse* out) {
@@ -349,6 +368,11 @@ ServiceStatus JobService::WatchJob(const v1::WatchJobRequest& req, const std::fu
   if (req.from_iteration() < 0) return Error(ServiceCode::kInvalidArgument, "from_iteration: must not be negative");
   v1::Job job;
   if (ServiceStatus st = m.FindJob(req.id(), &job); !st.ok()) return st;
+  m.metrics.WatcherOpened();
+  struct Closed {
+    ServiceMetrics& metrics;
+    ~Closed() { metrics.WatcherClosed(); }
+  } closed{m.metrics};
   v1::WatchJobEvent first;
   *first.mutable_job() = job;
   if (!write(first)) return ServiceStatus::Ok();

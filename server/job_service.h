@@ -73,6 +73,8 @@ class JobService {
   // -- For clients ---------------------------------------------------------------------------------
   // The built-in scenes and the parametric body's measurements (a fixed table: nothing is built).
   ServiceStatus ListScenes(v1::ListScenesResponse* response);
+  // Prometheus text exposition of the service's figures (server/service_metrics.h).
+  std::string MetricsText();
   ServiceStatus CreateJob(const v1::CreateJobRequest& request, v1::Job* job);
   ServiceStatus GetJob(int64_t id, v1::Job* job);
   ServiceStatus ListJobs(const v1::ListJobsRequest& request, v1::ListJobsResponse* response);

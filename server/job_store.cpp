@@ -248,6 +248,14 @@ std::vector<int64_t> JobStore::JobsInState(v1::JobState state) {
   return out;
 }
 
+std::map<v1::JobState, int64_t> JobStore::CountByState() {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, "SELECT state, COUNT(*) FROM jobs GROUP BY state");
+  std::map<v1::JobState, int64_t> out;
+  while (s.Step() == SQLITE_ROW) out[static_cast<v1::JobState>(s.Int(0))] = s.Int(1);
+  return out;
+}
+
 Result<std::optional<Lease>> JobStore::LeaseNext(const std::string& worker, double now, double duration_s) {
   std::lock_guard lock(mu_);
   if (Status st = Exec("BEGIN IMMEDIATE"); !st.ok()) return st;

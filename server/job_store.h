@@ -13,6 +13,7 @@
 
 #include <sqlite3.h>
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -51,6 +52,8 @@ class JobStore {
   std::optional<std::pair<v1::JobState, int>> Progress(int64_t id);
   Result<std::vector<v1::Job>> ListJobs(v1::JobState state, int64_t before_id, int limit);
   std::vector<int64_t> JobsInState(v1::JobState state);
+  // Jobs in each state (states without jobs are absent).
+  std::map<v1::JobState, int64_t> CountByState();
 
   // Leases the oldest queued job to `worker` until now + duration; nullopt when none is queued.
   Result<std::optional<Lease>> LeaseNext(const std::string& worker, double now, double duration_s);

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <sstream>
 #include <thread>
 
 #include "kgd/v1/kgd.pb.h"
@@ -156,7 +157,9 @@ std::vector<Event> WatchEvents(const std::string& id, const std::string& last_ev
     }
     return true;
   });
-  if (!stopped) EXPECT_TRUE(res) << "watch stream failed";
+  if (!stopped) {
+    EXPECT_TRUE(res) << "watch stream failed";
+  }
   return events;
 }
 
@@ -234,7 +237,9 @@ TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
   auto bytes = [&](const std::string& path) {
     auto r = cli.Get("/v1/jobs/" + id + path);
     EXPECT_TRUE(r && r->status == 200) << path << ": " << (r ? r->body : "no response");
-    if (r) EXPECT_EQ(r->get_header_value("Content-Type"), "application/octet-stream") << path;
+    if (r) {
+      EXPECT_EQ(r->get_header_value("Content-Type"), "application/octet-stream") << path;
+    }
     return r ? r->body : std::string();
   };
   auto floats = [](const std::string& b) {
@@ -459,6 +464,47 @@ TEST_F(HttpApi, ThePageAndItsLibrariesAreServed) {
   ASSERT_TRUE(packed && packed->status == 200);
   EXPECT_NE(packed->get_header_value("Content-Encoding"), "br");
   EXPECT_LT(packed->body.size(), three->body.size()) << "sent uncompressed";
+}
+
+// One sample of the Prometheus text at /metrics, e.g. Sample(text, "kgd_jobs{state=\"SUCCEEDED\"}"); -1: absent.
+double Sample(const std::string& text, const std::string& series) {
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);)
+    if (line.rfind(series + " ", 0) == 0) return std::stod(line.substr(series.size() + 1));
+  return -1;
+}
+
+TEST_F(HttpApi, MetricsCountJobsIterationsWritesAndWatchers) {
+  const v1::Job job = Create(SleeveJob(3, "metrics"));
+  const std::string id = std::to_string(job.id());
+  ASSERT_TRUE(WaitFor([&] { return Ended(id); }, 300));
+  auto res = Service().Client().Get("/metrics");
+  ASSERT_TRUE(res && res->status == 200);
+  EXPECT_EQ(res->get_header_value("Content-Type").rfind("text/plain; version=0.0.4", 0), 0u);
+  const std::string& text = res->body;
+  EXPECT_GE(Sample(text, "kgd_jobs{state=\"SUCCEEDED\"}"), 1) << text;
+  EXPECT_GE(Sample(text, "kgd_jobs{state=\"QUEUED\"}"), 0) << text;
+  EXPECT_GE(Sample(text, "kgd_queue_depth"), 0) << text;
+  EXPECT_GE(Sample(text, "kgd_jobs_created_total"), 1) << text;
+  // Iterations 0..3 of this job at least, each timed by the worker and written to HDF5 and SQLite.
+  const double iterations = Sample(text, "kgd_iterations_total");
+  EXPECT_GE(iterations, 4) << text;
+  EXPECT_EQ(Sample(text, "kgd_iteration_seconds_count"), iterations) << text;
+  EXPECT_EQ(Sample(text, "kgd_hdf5_write_seconds_count"), iterations) << text;
+  EXPECT_EQ(Sample(text, "kgd_sqlite_commit_seconds_count"), iterations) << text;
+  EXPECT_GT(Sample(text, "kgd_sqlite_commit_seconds_sum"), 0) << text;
+  EXPECT_GE(Sample(text, "kgd_lease_expiries_total"), 0) << text;
+  // An open watch shows while it is open.
+  const std::string running = std::to_string(Create(SleeveJob(400, "watched")).id());
+  std::atomic<bool> close{false};
+  std::thread watch([&] { Service().Client().Get("/v1/jobs/" + running + ":watch?view=metrics", [&](const char*, size_t) { return !close.load(); }); });
+  EXPECT_TRUE(WaitFor([&] {
+    auto m = Service().Client().Get("/metrics");
+    return m && Sample(m->body, "kgd_watchers") >= 1;
+  }, 60));
+  close = true;
+  Service().Client().Post("/v1/jobs/" + running + ":cancel", "", "application/json");
+  watch.join();
 }
 
 TEST_F(HttpApi, WatchesBeyondTheLimitAreRefusedUntilOneCloses) {
