@@ -1,3 +1,4 @@
+#include <sys/stat.h>
 #include "client/service_commands.h"
 
 #include <grpcpp/grpcpp.h>
@@ -371,6 +372,7 @@ struct ServeOptions {
 };
 
 int RunServe(ServeOptions o) {
+  umask(077);  // the data folder's files (SQLite, HDF5) are the owner's alone: 0600
   BlockTerminationSignals();
   auto server = server::DesignServer::Start(o.server);
   if (!server.ok()) {

@@ -266,8 +266,14 @@ Result<std::unique_ptr<JobService>> JobService::Open(const JobServiceOptions& op
   Impl& m = *s->impl_;
   m.options = options;
   std::error_code ec;
-  fs::create_directories(fs::path(options.data_dir) / "jobs", ec);
-  if (ec) return Status::Error(options.data_dir + ": cannot create the data folder: " + ec.message());
+  // The folders this creates are the owner's alone (designs and specs may be unpublished work); an
+  // existing folder keeps the permissions its owner gave it.
+  for (const fs::path& dir : {fs::path(options.data_dir), fs::path(options.data_dir) / "jobs"}) {
+    if (fs::exists(dir, ec)) continue;
+    fs::create_directories(dir, ec);
+    if (ec) return Status::Error(options.data_dir + ": cannot create the data folder: " + ec.message());
+    fs::permissions(dir, fs::perms::owner_all, ec);
+  }
   Result<std::unique_ptr<JobStore>> store = JobStore::Open((fs::path(options.data_dir) / "kgd.sqlite").string());
   if (!store.ok()) return store.status();
   m.store = std::move(store).value();

@@ -65,6 +65,8 @@ struct JobServiceOptions {
 class JobService {
  public:
   // Opens the data folder, repairs it after a crash, and starts expiring lost workers' leases.
+  // Creates the data folder (and jobs/) with mode 0700 when missing. The files in it get the process's
+  // umask: kgd-server and `kgd serve` set 077, so they are 0600.
   static Result<std::unique_ptr<JobService>> Open(const JobServiceOptions& options);
   ~JobService();  // Close()
 

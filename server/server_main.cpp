@@ -1,5 +1,6 @@
 // kgd-server: the design service on a data folder (see server/design_server.h). SIGTERM or SIGINT
 // drains (running jobs checkpoint and are queued again) and exits.
+#include <sys/stat.h>
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
@@ -33,6 +34,7 @@ int main(int argc, char** argv) {
   http.max_upload_bytes = static_cast<size_t>(max_upload_mb * (1 << 20));
   o.max_message_bytes = static_cast<int>(max_message_mb * (1 << 20));
 
+  umask(077);  // the data folder's files (SQLite, HDF5) are the owner's alone: 0600
   kgd::BlockTerminationSignals();
   auto server = kgd::server::DesignServer::Start(o);
   if (!server.ok()) {

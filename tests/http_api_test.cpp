@@ -507,6 +507,20 @@ TEST_F(HttpApi, MetricsCountJobsIterationsWritesAndWatchers) {
   watch.join();
 }
 
+TEST_F(HttpApi, TheDataFolderAndItsFilesAreTheOwnersAlone) {
+  const std::string id = std::to_string(Create(SleeveJob(1, "private")).id());
+  ASSERT_TRUE(WaitFor([&] { return Ended(id); }, 300));
+  const fs::path data = fs::path(Service().dir()) / "data";
+  auto mode = [](const fs::path& p) { return fs::status(p).permissions() & fs::perms::all; };
+  EXPECT_EQ(mode(data), fs::perms::owner_all);
+  EXPECT_EQ(mode(data / "jobs"), fs::perms::owner_all);
+  const fs::perms rw = fs::perms::owner_read | fs::perms::owner_write;
+  EXPECT_EQ(mode(data / "kgd.sqlite"), rw);
+  EXPECT_EQ(mode(data / "jobs" / ("job-" + id + ".h5")), rw);
+  for (const auto& entry : fs::recursive_directory_iterator(data))
+    EXPECT_EQ(mode(entry.path()) & (fs::perms::group_all | fs::perms::others_all), fs::perms::none) << entry.path();
+}
+
 TEST_F(HttpApi, WatchesBeyondTheLimitAreRefusedUntilOneCloses) {
   // The fixture's server takes --max-watchers 3.
   const std::string id = std::to_string(Create(SleeveJob(400, "many watchers")).id());
