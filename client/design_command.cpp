@@ -408,7 +408,7 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
   auto ex = std::make_shared<ExportFlags>();
   CLI::App* xp = app.add_subcommand("export", "Cut files for fabrication: pattern pieces and reinforcement patches (SVG, DXF in mm) from a stored design");
   xp->add_option("file", ex->file, "Design file (HDF5); a job id on the design server (--server); or a scene file or built-in scene name to export its own design")->required();
-  xp->add_option("--server", ex->server, "With a job id: the design server, host:port")->capture_default_str();
+  AddServerOptions(xp, &ex->server, "With a job id: the design server, host:port");
   xp->add_option("--body", ex->body, "With a built-in scene: a measurement of the parametric body, name=value in SI (repeatable)");
   xp->add_option("--out", ex->out, "Output folder (created if missing)")->required();
   xp->add_option("--iteration", ex->iteration, "Which iteration's design (default: the last within the budget)");

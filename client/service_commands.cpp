@@ -23,25 +23,45 @@
 #include "proto/job_spec.h"
 #include "job/fabrication_export.h"
 #include "proto/records.h"
+#include "proto/connection.h"
 #include "server/design_server.h"
 #include "server/http_gateway.h"
+#include "server/security_flags.h"
 #include "worker/design_worker.h"
 
 namespace kgd::cli {
 
-std::string DefaultServer() {
-  const char* env = std::getenv("KGD_SERVER");
-  return env && *env ? env : "127.0.0.1:7447";
+std::string DefaultServer() { return ConnectionFromEnvironment().server; }
+
+// The token and TLS CA of this run's client commands (--token, --tls-ca; defaults from the environment).
+Connection& ClientConnection() {
+  static Connection c = ConnectionFromEnvironment();
+  return c;
+}
+
+void AddServerOptions(CLI::App* command, std::string* server, const std::string& what) {
+  command->add_option("--server", *server, what + " (default: $KGD_SERVER or 127.0.0.1:7447)")->capture_default_str();
+  command->add_option("--token", ClientConnection().token, "Your token, for a server with --auth-tokens (default: $KGD_TOKEN)");
+  command->add_option("--tls-ca", ClientConnection().tls_ca,
+                      "PEM file of the CA that signed the server's certificate: connect over TLS (default: $KGD_TLS_CA)");
 }
 
 namespace {
 
+// A stub on the server with this run's token and TLS; null (after a message) when the CA file is bad.
 std::unique_ptr<v1::DesignService::Stub> Connect(const std::string& server) {
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(256 << 20);
   args.SetMaxSendMessageSize(256 << 20);
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 1000);
-  return v1::DesignService::NewStub(grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args));
+  Connection c = ClientConnection();
+  c.server = server;
+  Result<std::shared_ptr<grpc::Channel>> channel = OpenChannel(c, args);
+  if (!channel.ok()) {
+    std::fprintf(stderr, "kgd: %s\n", channel.message().c_str());
+    return nullptr;
+  }
+  return v1::DesignService::NewStub(*channel);
 }
 
 // gRPC errors as exit codes: unknown job and bad requests are the user's (2), the rest the server's (1).
@@ -111,6 +131,7 @@ void PrintSummary(const v1::Job& job) {
 // Follows a job to its end; after a dropped stream it reconnects from the next iteration it lacks.
 int RunWatch(const WatchOptions& o) {
   auto stub = Connect(o.server);
+  if (!stub) return 2;
   const bool bar = !o.json && isatty(STDOUT_FILENO);
   int next = o.from;
   v1::Job job;
@@ -121,6 +142,7 @@ int RunWatch(const WatchOptions& o) {
   int result = 130;
   while (!g_interrupted) {
     grpc::ClientContext ctx;
+    Authorize(ClientConnection(), &ctx);
     v1::WatchJobRequest req;
     req.set_id(o.job);
     req.set_from_iteration(next);
@@ -226,7 +248,9 @@ int RunSubmit(const SubmitOptions& o) {
     return 2;
   }
   auto stub = Connect(o.server);
+  if (!stub) return 2;
   grpc::ClientContext ctx;
+  Authorize(ClientConnection(), &ctx);
   SetDeadline(&ctx, 30);
   v1::Job job;
   const grpc::Status st = stub->CreateJob(&ctx, req, &job);
@@ -255,10 +279,12 @@ int RunJobs(const std::string& server, const std::string& state, int limit, bool
     req.set_state_filter(s);
   }
   auto stub = Connect(server);
+  if (!stub) return 2;
   std::vector<v1::Job> jobs;
   for (;;) {
     req.set_page_size(std::min(limit - static_cast<int>(jobs.size()), 1000));
     grpc::ClientContext ctx;
+    Authorize(ClientConnection(), &ctx);
     SetDeadline(&ctx, 30);
     v1::ListJobsResponse page;
     const grpc::Status st = stub->ListJobs(&ctx, req, &page);
@@ -286,7 +312,9 @@ int RunJobs(const std::string& server, const std::string& state, int limit, bool
 
 int RunJob(const std::string& server, int64_t id, bool json) {
   auto stub = Connect(server);
+  if (!stub) return 2;
   grpc::ClientContext ctx;
+  Authorize(ClientConnection(), &ctx);
   SetDeadline(&ctx, 30);
   v1::GetJobRequest req;
   req.set_id(id);
@@ -306,7 +334,9 @@ int RunJob(const std::string& server, int64_t id, bool json) {
 
 int RunCancel(const std::string& server, int64_t id) {
   auto stub = Connect(server);
+  if (!stub) return 2;
   grpc::ClientContext ctx;
+  Authorize(ClientConnection(), &ctx);
   SetDeadline(&ctx, 30);
   v1::CancelJobRequest req;
   req.set_id(id);
@@ -320,7 +350,9 @@ int RunCancel(const std::string& server, int64_t id) {
 
 int RunGet(const std::string& server, int64_t id, int iteration, const std::string& out, bool json) {
   auto stub = Connect(server);
+  if (!stub) return 2;
   grpc::ClientContext ctx;
+  Authorize(ClientConnection(), &ctx);
   SetDeadline(&ctx, 60);
   v1::GetIterationRequest req;
   req.set_id(id);
@@ -369,11 +401,20 @@ struct ServeOptions {
   server::HttpOptions http{.address = "127.0.0.1:7448", .web_dir = KGD_WEB_DIR};
   bool no_http = false;
   double max_upload_mb = 64;
+  server::SecurityFlags security;
 };
 
 int RunServe(ServeOptions o) {
   umask(077);  // the data folder's files (SQLite, HDF5) are the owner's alone: 0600
   BlockTerminationSignals();
+  if (Status st = server::ApplySecurityFlags(o.security, &o.server, &o.http); !st.ok()) {
+    std::fprintf(stderr, "kgd serve: %s\n", st.message().c_str());
+    return 1;
+  }
+  // In-process workers: a worker token of their own, and with TLS a plaintext port on loopback.
+  const std::string worker_token = o.server.tokens.enabled() ? server::NewToken() : "";
+  if (!worker_token.empty()) o.server.tokens.Add(worker_token, "kgd-serve-workers", server::Role::kWorker);
+  if (!o.server.tls_cert.empty() && o.workers > 0) o.server.internal_address = "127.0.0.1:0";
   auto server = server::DesignServer::Start(o.server);
   if (!server.ok()) {
     std::fprintf(stderr, "kgd serve: %s\n", server.message().c_str());
@@ -382,7 +423,8 @@ int RunServe(ServeOptions o) {
   std::vector<std::unique_ptr<worker::DesignWorker>> workers;
   for (int i = 0; i < o.workers; ++i) {
     worker::WorkerOptions wo;
-    wo.server = (*server)->address();
+    wo.connection.server = (*server)->internal_address();
+    wo.connection.token = worker_token;
     wo.jobs = o.jobs_per_worker;
     wo.quiet = o.server.quiet;
     wo.name = "serve-" + std::to_string(getpid()) + "-" + std::to_string(i);
@@ -431,6 +473,7 @@ void AddServiceCommands(CLI::App& app, int* exit_code) {
   sv->add_option("--http", serve->http.address, "host:port of the web page and the HTTP/JSON API (port 0: any free port)")->capture_default_str();
   sv->add_flag("--no-http", serve->no_http, "gRPC only: no web page, no HTTP API");
   sv->add_option("--web", serve->http.web_dir, "Folder of the web page's files")->capture_default_str();
+  server::AddSecurityFlags(sv, &serve->security);
   sv->add_option("--max-upload-mb", serve->max_upload_mb, "Largest HTTP request body accepted (MiB)")->check(CLI::PositiveNumber)->capture_default_str();
   sv->add_option("--max-watchers", serve->http.max_watchers, "Open HTTP watch streams (Server-Sent Events) served at once")
       ->check(CLI::PositiveNumber)->capture_default_str();
@@ -441,7 +484,7 @@ void AddServiceCommands(CLI::App& app, int* exit_code) {
   sb->add_option("scene", submit->scene, "Scene file (JSON; sent with the files it names) or a built-in scene name")->required();
   sb->add_option("--body", submit->body, "A measurement of the parametric body, name=value in SI (repeatable)");
   sb->add_option("--label", submit->label, "Free text shown in listings");
-  sb->add_option("--server", submit->server, "The design server, host:port")->capture_default_str();
+  AddServerOptions(sb, &submit->server, "The design server, host:port");
   sb->add_flag("--watch", submit->watch, "Then follow the job as `kgd watch` does");
   sb->add_flag("--json", submit->json, "Print JSON (the job; with --watch, one line per event)");
   AddOptimizerFlags(sb, &submit->optimizer);
@@ -451,7 +494,7 @@ void AddServiceCommands(CLI::App& app, int* exit_code) {
   CLI::App* wt = app.add_subcommand("watch", "Follow a job live: a progress bar on a terminal, JSON lines otherwise; reconnects when dropped");
   wt->add_option("job", watch->job, "Job id")->required();
   wt->add_option("--from", watch->from, "Replay stored iterations from this one")->check(CLI::NonNegativeNumber);
-  wt->add_option("--server", watch->server, "The design server, host:port")->capture_default_str();
+  AddServerOptions(wt, &watch->server, "The design server, host:port");
   wt->add_option("--retry-s", watch->retry_s, "Give up after this long without reaching the server")->capture_default_str();
   wt->add_flag("--json", watch->json, "One JSON line per event");
   wt->callback([watch, exit_code] { *exit_code = RunWatch(*watch); });
@@ -467,33 +510,35 @@ void AddServiceCommands(CLI::App& app, int* exit_code) {
   CLI::App* js = app.add_subcommand("jobs", "List jobs, newest first");
   js->add_option("--state", c->state, "Only jobs in this state (queued, running, succeeded, failed, cancelled)");
   js->add_option("--limit", c->limit, "At most this many")->check(CLI::PositiveNumber)->capture_default_str();
-  js->add_option("--server", c->server, "The design server, host:port")->capture_default_str();
+  AddServerOptions(js, &c->server, "The design server, host:port");
   js->add_flag("--json", c->json, "Print as a JSON array");
   js->callback([c, exit_code] { *exit_code = RunJobs(c->server, c->state, c->limit, c->json); });
 
   CLI::App* jb = app.add_subcommand("job", "Show one job");
   jb->add_option("job", c->job, "Job id")->required();
-  jb->add_option("--server", c->server, "The design server, host:port")->capture_default_str();
+  AddServerOptions(jb, &c->server, "The design server, host:port");
   jb->add_flag("--json", c->json, "Print as JSON");
   jb->callback([c, exit_code] { *exit_code = RunJob(c->server, c->job, c->json); });
 
   CLI::App* cn = app.add_subcommand("cancel", "Cancel a job (a running one stops after its current iteration)");
   cn->add_option("job", c->job, "Job id")->required();
-  cn->add_option("--server", c->server, "The design server, host:port")->capture_default_str();
+  AddServerOptions(cn, &c->server, "The design server, host:port");
   cn->callback([c, exit_code] { *exit_code = RunCancel(c->server, c->job); });
 
   CLI::App* gt = app.add_subcommand("get", "Fetch one stored iteration of a job: metrics, and with --out its design on the garment as PLY");
   gt->add_option("job", c->job, "Job id")->required();
   gt->add_option("--iteration", c->iteration, "Which iteration (default: the last stored)");
   gt->add_option("--out", c->out, "Write the equilibrium garment as PLY with per-face design and energy_density_Pa");
-  gt->add_option("--server", c->server, "The design server, host:port")->capture_default_str();
+  AddServerOptions(gt, &c->server, "The design server, host:port");
   gt->add_flag("--json", c->json, "Print the metrics as JSON");
   gt->callback([c, exit_code] { *exit_code = RunGet(c->server, c->job, c->iteration, c->out, c->json); });
 }
 
 int RunExportJob(const ExportJobRequest& r) {
   auto stub = Connect(r.server);
+  if (!stub) return 2;
   grpc::ClientContext ctx;
+  Authorize(ClientConnection(), &ctx);
   SetDeadline(&ctx, 300);
   v1::ExportDesignRequest req;
   req.set_id(r.job);

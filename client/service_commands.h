@@ -1,7 +1,8 @@
 // The CLI over the design service (gRPC, proto/kgd/v1/kgd.proto): `kgd serve` (server with in-process
 // workers on a data folder: the embedded default), `kgd submit`, `kgd watch`, `kgd jobs`, `kgd job`,
 // `kgd cancel`, `kgd get`. Every client command takes --server HOST:PORT (default: $KGD_SERVER, else
-// 127.0.0.1:7447).
+// 127.0.0.1:7447), --token (a server with --auth-tokens; default $KGD_TOKEN) and --tls-ca (TLS; default
+// $KGD_TLS_CA).
 //
 // Exit codes: 0 done; 1 the server cannot be reached or refused; 2 bad arguments or unknown job;
 // 3 the watched job FAILED; 4 it was CANCELLED; 130 interrupted.
@@ -26,5 +27,7 @@ struct ExportJobRequest {
 };
 int RunExportJob(const ExportJobRequest& request);
 std::string DefaultServer();
+// --server, --token and --tls-ca of a command that talks to the design server.
+void AddServerOptions(CLI::App* command, std::string* server, const std::string& what);
 
 }  // namespace kgd::cli

@@ -5,9 +5,11 @@
 #include <grpcpp/health_check_service_interface.h>
 
 #include <chrono>
+#include <optional>
 #include <cstdio>
 
 #include "kgd/v1/kgd.grpc.pb.h"
+#include "proto/connection.h"
 
 namespace kgd::server {
 using grpc::ServerContext;
@@ -18,43 +20,83 @@ grpc::Status ToGrpc(const ServiceStatus& st) {
   return st.ok() ? grpc::Status::OK : grpc::Status(static_cast<grpc::StatusCode>(st.code), st.message);
 }
 
+// The call's caller from its `authorization` metadata (server/auth.h); nullopt and `status` set when
+// it does not authenticate.
+std::optional<Caller> CallerOf(const JobService& service, ServerContext* ctx, grpc::Status* status) {
+  const auto& metadata = ctx->client_metadata();
+  const auto it = metadata.find("authorization");
+  Result<Caller> caller = service.Authenticate(it == metadata.end() ? std::string() : std::string(it->second.data(), it->second.size()));
+  if (!caller.ok()) {
+    *status = grpc::Status(grpc::StatusCode::UNAUTHENTICATED, caller.message());
+    return std::nullopt;
+  }
+  return *caller;
+}
+
 // DesignService and WorkerService: each call is the job service's, with the context's cancellation.
 class GrpcServices final : public v1::DesignService::Service, public v1::WorkerService::Service {
  public:
   explicit GrpcServices(JobService* service) : service_(*service) {}
 
-  grpc::Status ListScenes(ServerContext*, const v1::ListScenesRequest*, v1::ListScenesResponse* out) override {
+  grpc::Status ListScenes(ServerContext* ctx, const v1::ListScenesRequest*, v1::ListScenesResponse* out) override {
+    grpc::Status st;
+    if (!CallerOf(service_, ctx, &st)) return st;
     return ToGrpc(service_.ListScenes(out));
   }
-  grpc::Status CreateJob(ServerContext*, const v1::CreateJobRequest* req, v1::Job* out) override {
-    return ToGrpc(service_.CreateJob(*req, out));
+  grpc::Status CreateJob(ServerContext* ctx, const v1::CreateJobRequest* req, v1::Job* out) override {
+    grpc::Status st;
+    const auto caller = CallerOf(service_, ctx, &st);
+    return caller ? ToGrpc(service_.CreateJob(*caller, *req, out)) : st;
   }
-  grpc::Status GetJob(ServerContext*, const v1::GetJobRequest* req, v1::Job* out) override { return ToGrpc(service_.GetJob(req->id(), out)); }
-  grpc::Status ListJobs(ServerContext*, const v1::ListJobsRequest* req, v1::ListJobsResponse* out) override {
-    return ToGrpc(service_.ListJobs(*req, out));
+  grpc::Status GetJob(ServerContext* ctx, const v1::GetJobRequest* req, v1::Job* out) override {
+    grpc::Status st;
+    const auto caller = CallerOf(service_, ctx, &st);
+    return caller ? ToGrpc(service_.GetJob(*caller, req->id(), out)) : st;
   }
-  grpc::Status CancelJob(ServerContext*, const v1::CancelJobRequest* req, v1::Job* out) override {
-    return ToGrpc(service_.CancelJob(req->id(), out));
+  grpc::Status ListJobs(ServerContext* ctx, const v1::ListJobsRequest* req, v1::ListJobsResponse* out) override {
+    grpc::Status st;
+    const auto caller = CallerOf(service_, ctx, &st);
+    return caller ? ToGrpc(service_.ListJobs(*caller, *req, out)) : st;
   }
-  grpc::Status GetIteration(ServerContext*, const v1::GetIterationRequest* req, v1::GetIterationResponse* out) override {
-    return ToGrpc(service_.GetIteration(*req, out));
+  grpc::Status CancelJob(ServerContext* ctx, const v1::CancelJobRequest* req, v1::Job* out) override {
+    grpc::Status st;
+    const auto caller = CallerOf(service_, ctx, &st);
+    return caller ? ToGrpc(service_.CancelJob(*caller, req->id(), out)) : st;
   }
-  grpc::Status GetEvaluation(ServerContext*, const v1::GetEvaluationRequest* req, v1::DesignEvaluation* out) override {
-    return ToGrpc(service_.GetEvaluation(req->id(), out));
+  grpc::Status GetIteration(ServerContext* ctx, const v1::GetIterationRequest* req, v1::GetIterationResponse* out) override {
+    grpc::Status st;
+    const auto caller = CallerOf(service_, ctx, &st);
+    return caller ? ToGrpc(service_.GetIteration(*caller, *req, out)) : st;
   }
-  grpc::Status ExportDesign(ServerContext*, const v1::ExportDesignRequest* req, v1::ExportDesignResponse* out) override {
-    return ToGrpc(service_.ExportDesign(*req, out));
+  grpc::Status GetEvaluation(ServerContext* ctx, const v1::GetEvaluationRequest* req, v1::DesignEvaluation* out) override {
+    grpc::Status st;
+    const auto caller = CallerOf(service_, ctx, &st);
+    return caller ? ToGrpc(service_.GetEvaluation(*caller, req->id(), out)) : st;
+  }
+  grpc::Status ExportDesign(ServerContext* ctx, const v1::ExportDesignRequest* req, v1::ExportDesignResponse* out) override {
+    grpc::Status st;
+    const auto caller = CallerOf(service_, ctx, &st);
+    return caller ? ToGrpc(service_.ExportDesign(*caller, *req, out)) : st;
   }
   grpc::Status WatchJob(ServerContext* ctx, const v1::WatchJobRequest* req, grpc::ServerWriter<v1::WatchJobEvent>* writer) override {
+    grpc::Status st;
+    const auto caller = CallerOf(service_, ctx, &st);
+    if (!caller) return st;
     return ToGrpc(service_.WatchJob(
-        *req, [writer](const v1::WatchJobEvent& ev) { return writer->Write(ev); }, [ctx] { return ctx->IsCancelled(); }));
+        *caller, *req, [writer](const v1::WatchJobEvent& ev) { return writer->Write(ev); }, [ctx] { return ctx->IsCancelled(); }));
   }
 
   grpc::Status LeaseJob(ServerContext* ctx, const v1::LeaseJobRequest* req, v1::LeaseJobResponse* out) override {
-    return ToGrpc(service_.LeaseJob(*req, out, [ctx] { return ctx->IsCancelled(); }));
+    grpc::Status st;
+    const auto caller = CallerOf(service_, ctx, &st);
+    if (!caller) return st;
+    return ToGrpc(service_.LeaseJob(*caller, *req, out, [ctx] { return ctx->IsCancelled(); }));
   }
   grpc::Status RunJob(ServerContext* ctx, grpc::ServerReaderWriter<v1::ServerMessage, v1::WorkerMessage>* stream) override {
-    return ToGrpc(service_.RunJob([stream](v1::WorkerMessage* m) { return stream->Read(m); },
+    grpc::Status st;
+    const auto caller = CallerOf(service_, ctx, &st);
+    if (!caller) return st;
+    return ToGrpc(service_.RunJob(*caller, [stream](v1::WorkerMessage* m) { return stream->Read(m); },
                                   [stream](const v1::ServerMessage& m) { return stream->Write(m); }, [ctx] { return ctx->IsCancelled(); }));
   }
 
@@ -69,7 +111,7 @@ struct DesignServer::Impl {
   std::unique_ptr<JobService> service;
   std::unique_ptr<GrpcServices> services;
   std::unique_ptr<grpc::Server> server;
-  int port = 0;
+  int port = 0, internal_port = 0;
   bool shut = false;
 };
 
@@ -78,8 +120,24 @@ Result<std::unique_ptr<DesignServer>> DesignServer::Start(const ServerOptions& o
   s->impl_ = std::make_unique<Impl>();
   Impl& m = *s->impl_;
   m.options = options;
-  Result<std::unique_ptr<JobService>> service =
-      JobService::Open({.data_dir = options.data_dir, .lease_duration_s = options.lease_duration_s, .max_attempts = options.max_attempts, .quiet = options.quiet});
+  const bool tls = !options.tls_cert.empty() || !options.tls_key.empty();
+  if (tls && (options.tls_cert.empty() || options.tls_key.empty())) return Status::Error("TLS needs both --tls-cert and --tls-key");
+  KGD_RETURN_IF_ERROR(CheckExposure("--listen", options.address, tls, options.tokens.enabled(), options.insecure));
+  std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
+  if (tls) {
+    Result<std::string> cert = ReadPemFile(options.tls_cert, "certificate (--tls-cert)");
+    if (!cert.ok()) return cert.status();
+    Result<std::string> key = ReadPemFile(options.tls_key, "private key (--tls-key)");
+    if (!key.ok()) return key.status();
+    grpc::SslServerCredentialsOptions ssl;
+    ssl.pem_key_cert_pairs.push_back({*key, *cert});
+    credentials = grpc::SslServerCredentials(ssl);
+  }
+  Result<std::unique_ptr<JobService>> service = JobService::Open({.data_dir = options.data_dir,
+                                                                  .lease_duration_s = options.lease_duration_s,
+                                                                  .max_attempts = options.max_attempts,
+                                                                  .quiet = options.quiet,
+                                                                  .tokens = options.tokens});
   if (!service.ok()) return service.status();
   m.service = std::move(service).value();
   m.services = std::make_unique<GrpcServices>(m.service.get());
@@ -87,7 +145,11 @@ Result<std::unique_ptr<DesignServer>> DesignServer::Start(const ServerOptions& o
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
-  builder.AddListeningPort(options.address, grpc::InsecureServerCredentials(), &m.port);
+  builder.AddListeningPort(options.address, credentials, &m.port);
+  if (!options.internal_address.empty()) {
+    if (!IsLoopbackAddress(options.internal_address)) return Status::Error("the internal port " + options.internal_address + " must be on loopback");
+    builder.AddListeningPort(options.internal_address, grpc::InsecureServerCredentials(), &m.internal_port);
+  }
   builder.SetMaxReceiveMessageSize(options.max_message_bytes);
   builder.SetMaxSendMessageSize(options.max_message_bytes);
   builder.RegisterService(static_cast<v1::DesignService::Service*>(m.services.get()));
@@ -105,6 +167,11 @@ std::string DesignServer::address() const {
   const std::string& a = impl_->options.address;
   const std::string host = a.substr(0, a.rfind(':'));
   return (host == "0.0.0.0" || host == "[::]" ? "127.0.0.1" : host) + ":" + std::to_string(impl_->port);
+}
+std::string DesignServer::internal_address() const {
+  if (impl_->internal_port == 0) return address();
+  const std::string& a = impl_->options.internal_address;
+  return a.substr(0, a.rfind(':')) + ":" + std::to_string(impl_->internal_port);
 }
 const std::string& DesignServer::data_dir() const { return impl_->options.data_dir; }
 JobService& DesignServer::service() { return *impl_->service; }

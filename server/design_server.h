@@ -20,17 +20,26 @@ struct ServerOptions {
   int max_message_bytes = 64 << 20;        // larger requests get RESOURCE_EXHAUSTED
   double drain_timeout_s = 120;            // how long Drain waits for workers to checkpoint
   bool quiet = false;                      // no log lines on stderr
+  TokenTable tokens;                       // bearer tokens (server/auth.h); none: anyone who reaches the port
+  std::string tls_cert, tls_key;           // PEM files: serve gRPC over TLS; empty: plaintext
+  // A second, plaintext port on loopback (host:port, port 0: any) for in-process workers of a server
+  // whose main port takes TLS; empty: none.
+  std::string internal_address;
+  bool insecure = false;                   // allow a non-loopback address without TLS and tokens
 };
 
 class DesignServer {
  public:
   // Opens the data folder, repairs it after a crash, and starts serving.
+  // A non-loopback address without both TLS and tokens is refused unless options.insecure.
   static Result<std::unique_ptr<DesignServer>> Start(const ServerOptions& options);
   ~DesignServer();  // Shutdown()
 
   int port() const;
   std::string address() const;  // 127.0.0.1:PORT for clients
   const std::string& data_dir() const;
+  // Where in-process workers connect: the internal port when there is one, else address().
+  std::string internal_address() const;
   // The transport-free service behind the gRPC handlers, for other doors in the same process.
   JobService& service();
 

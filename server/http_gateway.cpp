@@ -12,6 +12,7 @@
 
 #include "core/mesh/mesh_io.h"
 #include "proto/job_spec.h"
+#include "proto/connection.h"
 #include "proto/records.h"
 // After Eigen (through the headers above): a macro of the socket headers it pulls in breaks Eigen's.
 #include <httplib.h>
@@ -64,6 +65,20 @@ int HttpStatusOf(ServiceCode code) {
     case ServiceCode::kUnauthenticated: return 401;
   }
   return 500;
+}
+
+// The value of cookie `name` in the request's Cookie header; empty when absent.
+std::string CookieValue(const httplib::Request& req, const std::string& name) {
+  const std::string cookies = req.get_header_value("Cookie");
+  for (size_t at = 0; at < cookies.size();) {
+    size_t end = cookies.find(';', at);
+    if (end == std::string::npos) end = cookies.size();
+    std::string pair = cookies.substr(at, end - at);
+    pair.erase(0, pair.find_first_not_of(' '));
+    if (pair.rfind(name + "=", 0) == 0) return pair.substr(name.size() + 1);
+    at = end + 1;
+  }
+  return "";
 }
 
 std::string JsonEscape(const std::string& s) {
@@ -152,12 +167,26 @@ void SetEnergyPerArea(httplib::Response& res, const v1::Garment& g, const std::s
 struct HttpGateway::Impl {
   JobService* service = nullptr;
   HttpOptions options;
-  httplib::Server http;
+  std::unique_ptr<httplib::Server> server;  // an SSLServer with TLS
   std::thread listener;
   std::atomic<bool> stopping{false};
   std::atomic<int> watchers{0};
   int port = 0;
   std::string host;
+
+  // The request's caller: the Authorization header's bearer token, or for GET (the browser's
+  // EventSource and download links cannot send headers) the cookie kgd_token.
+  Result<Caller> Authenticate(const httplib::Request& req) const {
+    const std::string authorization = req.get_header_value("Authorization");
+    if (!authorization.empty() || req.method != "GET") return service->Authenticate(authorization);
+    return service->AuthenticateToken(CookieValue(req, "kgd_token"));
+  }
+  // After the pre-routing check, which refused requests that do not authenticate; a request that
+  // still does not is a worker, which reads nothing.
+  Caller CallerOf(const httplib::Request& req) const {
+    Result<Caller> c = Authenticate(req);
+    return c.ok() ? *c : Caller{"", Role::kWorker};
+  }
 
   // Path parameters: job id and iteration (-1: the last).
   bool JobId(const httplib::Request& req, httplib::Response& res, int64_t* id) {
@@ -182,7 +211,7 @@ struct HttpGateway::Impl {
     r.set_id(id);
     r.set_iteration(static_cast<int>(n));
     r.set_with_garment(with_garment);
-    if (ServiceStatus st = service->GetIteration(r, out); !st.ok()) {
+    if (ServiceStatus st = service->GetIteration(CallerOf(req), r, out); !st.ok()) {
       SetError(res, st);
       return false;
     }
@@ -198,7 +227,7 @@ struct HttpGateway::Impl {
     r.set_iteration(0);
     r.set_with_garment(true);
     v1::GetIterationResponse resp;
-    if (ServiceStatus st = service->GetIteration(r, &resp); !st.ok()) {
+    if (ServiceStatus st = service->GetIteration(CallerOf(req), r, &resp); !st.ok()) {
       if (st.code == ServiceCode::kNotFound && st.message.find("is not stored") != std::string::npos)
         st.message = "job " + std::to_string(id) + " has no garment yet (it has no iteration; watch it until the first arrives)";
       SetError(res, st);
@@ -211,7 +240,7 @@ struct HttpGateway::Impl {
   bool Evaluation(const httplib::Request& req, httplib::Response& res, v1::DesignEvaluation* out) {
     int64_t id = 0;
     if (!JobId(req, res, &id)) return false;
-    if (ServiceStatus st = service->GetEvaluation(id, out); !st.ok()) {
+    if (ServiceStatus st = service->GetEvaluation(CallerOf(req), id, out); !st.ok()) {
       SetError(res, st);
       return false;
     }
@@ -224,7 +253,7 @@ struct HttpGateway::Impl {
     r.set_id(std::atoll(std::string(req.matches[1]).c_str()));
     r.set_iteration(e.iteration());
     r.set_with_garment(true);
-    if (ServiceStatus st = service->GetIteration(r, out); !st.ok()) {
+    if (ServiceStatus st = service->GetIteration(CallerOf(req), r, out); !st.ok()) {
       SetError(res, st);
       return false;
     }
@@ -237,6 +266,7 @@ struct HttpGateway::Impl {
 };
 
 void HttpGateway::Impl::Routes() {
+  httplib::Server& http = *server;
   http.Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
     res.set_content(service->MetricsText(), "text/plain; version=0.0.4; charset=utf-8");
   });
@@ -263,7 +293,7 @@ void HttpGateway::Impl::Routes() {
       r.set_state_filter(state);
     }
     v1::ListJobsResponse out;
-    if (ServiceStatus st = service->ListJobs(r, &out); !st.ok()) return SetError(res, st);
+    if (ServiceStatus st = service->ListJobs(CallerOf(req), r, &out); !st.ok()) return SetError(res, st);
     SetMessage(res, out);
   });
 
@@ -273,7 +303,7 @@ void HttpGateway::Impl::Routes() {
     int64_t id = 0;
     if (!JobId(req, res, &id)) return;
     v1::Job job;
-    if (ServiceStatus st = service->GetJob(id, &job); !st.ok()) return SetError(res, st);
+    if (ServiceStatus st = service->GetJob(CallerOf(req), id, &job); !st.ok()) return SetError(res, st);
     SetMessage(res, job);
   });
 
@@ -281,7 +311,7 @@ void HttpGateway::Impl::Routes() {
     int64_t id = 0;
     if (!JobId(req, res, &id)) return;
     v1::Job job;
-    if (ServiceStatus st = service->CancelJob(id, &job); !st.ok()) return SetError(res, st);
+    if (ServiceStatus st = service->CancelJob(CallerOf(req), id, &job); !st.ok()) return SetError(res, st);
     SetMessage(res, job);
   });
 
@@ -394,7 +424,7 @@ void HttpGateway::Impl::Routes() {
                  (r.*set)(d);
                }
              v1::ExportDesignResponse out;
-             if (ServiceStatus st = service->ExportDesign(r, &out); !st.ok()) return SetError(res, st);
+             if (ServiceStatus st = service->ExportDesign(CallerOf(req), r, &out); !st.ok()) return SetError(res, st);
              const std::string name = req.matches[3];
              const auto it = out.files().find(name);
              if (it == out.files().end()) return SetError(res, 500, ServiceCode::kInternal, "the export made no " + name);
@@ -428,7 +458,7 @@ void HttpGateway::Impl::Routes() {
     int64_t id = 0;
     if (!JobId(req, res, &id)) return;
     v1::Job job;
-    if (ServiceStatus st = service->GetJob(id, &job); !st.ok()) return SetError(res, st);
+    if (ServiceStatus st = service->GetJob(CallerOf(req), id, &job); !st.ok()) return SetError(res, st);
     if (job.state() == v1::QUEUED || job.state() == v1::RUNNING)
       return SetError(res, 400, ServiceCode::kFailedPrecondition,
                       "job " + std::to_string(id) + " is " + v1::JobState_Name(job.state()) +
@@ -469,7 +499,7 @@ void HttpGateway::Impl::CreateJob(const httplib::Request& req, httplib::Response
                     "POST /v1/jobs takes application/json (a JobSpec) or multipart/form-data (scene and files), not '" + type + "'");
   }
   v1::Job job;
-  if (ServiceStatus st = service->CreateJob(r, &job); !st.ok()) return SetError(res, st);
+  if (ServiceStatus st = service->CreateJob(CallerOf(req), r, &job); !st.ok()) return SetError(res, st);
   res.status = 200;
   SetMessage(res, job);
 }
@@ -492,7 +522,7 @@ void HttpGateway::Impl::Watch(const httplib::Request& req, httplib::Response& re
   const bool metrics_only = req.get_param_value("view") == "metrics";
   // An unknown job is an error response, not an empty stream.
   v1::Job job;
-  if (ServiceStatus st = service->GetJob(id, &job); !st.ok()) return SetError(res, st);
+  if (ServiceStatus st = service->GetJob(CallerOf(req), id, &job); !st.ok()) return SetError(res, st);
   if (watchers.fetch_add(1) >= options.max_watchers) {
     --watchers;
     return SetError(res, 429, ServiceCode::kResourceExhausted,
@@ -501,7 +531,7 @@ void HttpGateway::Impl::Watch(const httplib::Request& req, httplib::Response& re
 
   res.set_header("Cache-Control", "no-cache");
   res.set_header("X-Accel-Buffering", "no");
-  res.set_chunked_content_provider("text/event-stream", [this, r, metrics_only](size_t, httplib::DataSink& sink) {
+  res.set_chunked_content_provider("text/event-stream", [this, r, metrics_only, caller = CallerOf(req)](size_t, httplib::DataSink& sink) {
     Clock::time_point last_write = Clock::now();
     bool gone = false;
     auto send = [&](const std::string& text) {
@@ -511,7 +541,7 @@ void HttpGateway::Impl::Watch(const httplib::Request& req, httplib::Response& re
     };
     send("retry: 2000\n\n");
     service->WatchJob(
-        r,
+        caller, r,
         [&](const v1::WatchJobEvent& ev) {
           if (ev.has_job()) return send("event: job\ndata: " + ToJson(ev.job()) + "\n\n");
           v1::IterationRecord rec = ev.iteration();
@@ -542,15 +572,39 @@ Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService* service, con
   m.service = service;
   m.options = options;
   m.host = options.address.substr(0, colon);
-  httplib::Server& http = m.http;
+  const bool tls = !options.tls_cert.empty() || !options.tls_key.empty();
+  if (tls && (options.tls_cert.empty() || options.tls_key.empty())) return Status::Error("HTTPS needs both --tls-cert and --tls-key");
+  KGD_RETURN_IF_ERROR(CheckExposure("--http", options.address, tls, service->options().tokens.enabled(), options.insecure));
+  if (tls) {
+    for (const auto& [path, what] : {std::pair{options.tls_cert, "certificate (--tls-cert)"}, std::pair{options.tls_key, "private key (--tls-key)"}})
+      if (Result<std::string> pem = ReadPemFile(path, what); !pem.ok()) return pem.status();
+    auto ssl = std::make_unique<httplib::SSLServer>(options.tls_cert.c_str(), options.tls_key.c_str());
+    if (!ssl->is_valid()) return Status::Error(options.tls_cert + ", " + options.tls_key + ": not a certificate and its private key");
+    m.server = std::move(ssl);
+  } else {
+    m.server = std::make_unique<httplib::Server>();
+  }
+  httplib::Server& http = *m.server;
   // Each watch holds a thread for its whole life; the other requests keep threads of their own.
   http.new_task_queue = [n = static_cast<size_t>(std::max(options.max_watchers, 0) + 16)] { return new httplib::ThreadPool(n); };
   // Debian's cpp-httplib compresses with Brotli at its slowest quality whenever a client accepts it
   // (1.3 s for three.js); gzip costs 2 % of that, so the gateway hides "br" from the library.
-  http.set_pre_routing_handler([](const httplib::Request& req, httplib::Response&) {
+  // Every API request and /metrics is authenticated here first (the page's static files are public).
+  http.set_pre_routing_handler([&m](const httplib::Request& req, httplib::Response& res) {
     auto& headers = const_cast<httplib::Request&>(req).headers;  // the library's own, non-const Request
     auto it = headers.find("Accept-Encoding");
     if (it != headers.end() && it->second.find("br") != std::string::npos) it->second = it->second.find("gzip") != std::string::npos ? "gzip" : "";
+    if (req.path.rfind("/v1/", 0) != 0 && req.path != "/metrics") return httplib::Server::HandlerResponse::Unhandled;
+    Result<Caller> caller = m.Authenticate(req);
+    if (!caller.ok()) {
+      res.set_header("WWW-Authenticate", "Bearer");
+      SetError(res, 401, ServiceCode::kUnauthenticated, caller.message());
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (req.path == "/metrics" && caller->role != Role::kAdmin) {
+      SetError(res, 403, ServiceCode::kPermissionDenied, "/metrics needs an admin's token");
+      return httplib::Server::HandlerResponse::Handled;
+    }
     return httplib::Server::HandlerResponse::Unhandled;
   });
   // The page's libraries change only with client/web/package-lock.json.
@@ -600,7 +654,7 @@ Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService* service, con
     m.port = static_cast<int>(port);
   }
   WidenListenBacklog(m.port);
-  m.listener = std::thread([&m] { m.http.listen_after_bind(); });
+  m.listener = std::thread([&m] { m.server->listen_after_bind(); });
   return g;
 }
 
@@ -610,12 +664,13 @@ int HttpGateway::port() const { return impl_->port; }
 
 std::string HttpGateway::url() const {
   const std::string host = impl_->host == "0.0.0.0" || impl_->host.empty() ? "127.0.0.1" : impl_->host;
-  return "http://" + host + ":" + std::to_string(impl_->port) + "/";
+  const bool tls = !impl_->options.tls_cert.empty();
+  return (tls ? "https://" : "http://") + host + ":" + std::to_string(impl_->port) + "/";
 }
 
 void HttpGateway::Stop() {
   if (!impl_ || impl_->stopping.exchange(true)) return;
-  impl_->http.stop();
+  if (impl_->server) impl_->server->stop();
   if (impl_->listener.joinable()) impl_->listener.join();
 }
 

@@ -47,6 +47,8 @@ struct HttpOptions {
   size_t max_upload_bytes = 64 << 20;      // larger request bodies get 413 RESOURCE_EXHAUSTED
   double keepalive_s = 10;                 // an SSE comment this often keeps idle watches alive
   int max_watchers = 200;                  // open :watch streams; one more gets 429 RESOURCE_EXHAUSTED
+  std::string tls_cert, tls_key;           // PEM files: serve HTTPS; empty: plain HTTP
+  bool insecure = false;                   // allow a non-loopback address without TLS and tokens
 };
 
 class HttpGateway {

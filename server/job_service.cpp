@@ -142,10 +142,13 @@ struct JobService::Impl {
     return Status::Ok();
   }
 
-  ServiceStatus FindJob(int64_t id, v1::Job* out) {
+  // Job `id` as `caller` may see it: another user's job does not exist for a `user`.
+  ServiceStatus FindJob(const Caller& caller, int64_t id, v1::Job* out) {
+    if (caller.role == Role::kWorker) return Error(ServiceCode::kPermissionDenied, "a worker's token cannot read jobs");
     Result<std::optional<v1::Job>> job = store->GetJob(id);
     if (!job.ok()) return Internal(job.status());
-    if (!*job) return Error(ServiceCode::kNotFound, "job " + std::to_string(id) + " does not exist");
+    if (!*job || (caller.role == Role::kUser && (*job)->owner() != caller.user))
+      return Error(ServiceCode::kNotFound, "job " + std::to_string(id) + " does not exist");
     *out = **job;
     Decorate(out);
     return ServiceStatus::Ok();
@@ -286,11 +289,15 @@ JobService::~JobService() { Close(); }
 
 const JobServiceOptions& JobService::options() const { return impl_->options; }
 
-ServiceStatus JobService::CreateJob(const v1::CreateJobRequest& req, v1::Job* out) {
+Result<Caller> JobService::Authenticate(const std::string& authorization) const { return impl_->options.tokens.Authenticate(authorization); }
+Result<Caller> JobService::AuthenticateToken(const std::string& token) const { return impl_->options.tokens.AuthenticateToken(token); }
+
+ServiceStatus JobService::CreateJob(const Caller& caller, const v1::CreateJobRequest& req, v1::Job* out) {
   Impl& m = *impl_;
+  if (caller.role == Role::kWorker) return Error(ServiceCode::kPermissionDenied, "a worker's token cannot create jobs");
   if (m.draining || m.stopping) return Error(ServiceCode::kUnavailable, "the server is shutting down");
   if (Status st = ValidateJobSpec(req.spec()); !st.ok()) return Error(ServiceCode::kInvalidArgument, st.message());
-  Result<int64_t> id = m.store->CreateJob(req.spec(), m.options.max_attempts, Now());
+  Result<int64_t> id = m.store->CreateJob(req.spec(), m.options.max_attempts, Now(), caller.user);
   if (!id.ok()) return Internal(id.status());
   Result<std::optional<v1::Job>> job = m.store->GetJob(*id);
   if (!job.ok() || !*job) return Internal(job.status());
@@ -334,10 +341,11 @@ ServiceStatus JobService::ListScenes(v1::ListScenesResponse* out) {
   return ServiceStatus::Ok();
 }
 
-ServiceStatus JobService::GetJob(int64_t id, v1::Job* out) { return impl_->FindJob(id, out); }
+ServiceStatus JobService::GetJob(const Caller& caller, int64_t id, v1::Job* out) { return impl_->FindJob(caller, id, out); }
 
-ServiceStatus JobService::ListJobs(const v1::ListJobsRequest& req, v1::ListJobsResponse* out) {
+ServiceStatus JobService::ListJobs(const Caller& caller, const v1::ListJobsRequest& req, v1::ListJobsResponse* out) {
   Impl& m = *impl_;
+  if (caller.role == Role::kWorker) return Error(ServiceCode::kPermissionDenied, "a worker's token cannot list jobs");
   if (req.page_size() < 0) return Error(ServiceCode::kInvalidArgument, "page_size: must not be negative");
   const int size = req.page_size() == 0 ? 50 : std::min(req.page_size(), 1000);
   int64_t before = 0;
@@ -346,7 +354,8 @@ ServiceStatus JobService::ListJobs(const v1::ListJobsRequest& req, v1::ListJobsR
     before = std::strtoll(req.page_token().c_str(), &end, 10);
     if (*end != '\0' || before <= 0) return Error(ServiceCode::kInvalidArgument, "page_token: not a token from ListJobs");
   }
-  Result<std::vector<v1::Job>> jobs = m.store->ListJobs(req.state_filter(), before, size);
+  Result<std::vector<v1::Job>> jobs = m.store->ListJobs(req.state_filter(), before, size,
+                                                             caller.role == Role::kUser ? std::optional<std::string>(caller.user) : std::nullopt);
   if (!jobs.ok()) return Internal(jobs.status());
   for (v1::Job& j : *jobs) {
     m.Decorate(&j);
@@ -356,8 +365,10 @@ ServiceStatus JobService::ListJobs(const v1::ListJobsRequest& req, v1::ListJobsR
   return ServiceStatus::Ok();
 }
 
-ServiceStatus JobService::CancelJob(int64_t id, v1::Job* out) {
+ServiceStatus JobService::CancelJob(const Caller& caller, int64_t id, v1::Job* out) {
   Impl& m = *impl_;
+  v1::Job visible;
+  if (ServiceStatus st = m.FindJob(caller, id, &visible); !st.ok()) return st;
   Result<std::optional<v1::Job>> job = m.store->Cancel(id, Now());
   if (!job.ok()) return Internal(job.status());
   if (!*job) return Error(ServiceCode::kNotFound, "job " + std::to_string(id) + " does not exist");
@@ -368,12 +379,12 @@ ServiceStatus JobService::CancelJob(int64_t id, v1::Job* out) {
   return ServiceStatus::Ok();
 }
 
-ServiceStatus JobService::WatchJob(const v1::WatchJobRequest& req, const std::function<bool(const v1::WatchJobEvent&)>& write,
+ServiceStatus JobService::WatchJob(const Caller& caller, const v1::WatchJobRequest& req, const std::function<bool(const v1::WatchJobEvent&)>& write,
                                    const std::function<bool()>& cancelled) {
   Impl& m = *impl_;
   if (req.from_iteration() < 0) return Error(ServiceCode::kInvalidArgument, "from_iteration: must not be negative");
   v1::Job job;
-  if (ServiceStatus st = m.FindJob(req.id(), &job); !st.ok()) return st;
+  if (ServiceStatus st = m.FindJob(caller, req.id(), &job); !st.ok()) return st;
   m.metrics.WatcherOpened();
   struct Closed {
     ServiceMetrics& metrics;
@@ -403,7 +414,7 @@ ServiceStatus JobService::WatchJob(const v1::WatchJobRequest& req, const std::fu
       if (!write(ev)) return ServiceStatus::Ok();
     }
     if (state != sent_state) {
-      if (ServiceStatus st = m.FindJob(req.id(), &job); !st.ok()) return st;
+      if (ServiceStatus st = m.FindJob(caller, req.id(), &job); !st.ok()) return st;
       v1::WatchJobEvent ev;
       *ev.mutable_job() = job;
       if (!write(ev)) return ServiceStatus::Ok();
@@ -415,10 +426,10 @@ ServiceStatus JobService::WatchJob(const v1::WatchJobRequest& req, const std::fu
   return Error(ServiceCode::kCancelled, "the watch ended (client gone or server stopping)");
 }
 
-ServiceStatus JobService::GetIteration(const v1::GetIterationRequest& req, v1::GetIterationResponse* out) {
+ServiceStatus JobService::GetIteration(const Caller& caller, const v1::GetIterationRequest& req, v1::GetIterationResponse* out) {
   Impl& m = *impl_;
   v1::Job job;
-  if (ServiceStatus st = m.FindJob(req.id(), &job); !st.ok()) return st;
+  if (ServiceStatus st = m.FindJob(caller, req.id(), &job); !st.ok()) return st;
   const int k = req.iteration() < 0 ? job.iterations() - 1 : req.iteration();
   if (k < 0 || k >= job.iterations())
     return Error(ServiceCode::kNotFound, "job " + std::to_string(req.id()) + ": iteration " + std::to_string(req.iteration()) +
@@ -432,10 +443,10 @@ ServiceStatus JobService::GetIteration(const v1::GetIterationRequest& req, v1::G
   return ServiceStatus::Ok();
 }
 
-ServiceStatus JobService::GetEvaluation(int64_t id, v1::DesignEvaluation* out) {
+ServiceStatus JobService::GetEvaluation(const Caller& caller, int64_t id, v1::DesignEvaluation* out) {
   Impl& m = *impl_;
   v1::Job job;
-  if (ServiceStatus st = m.FindJob(id, &job); !st.ok()) return st;
+  if (ServiceStatus st = m.FindJob(caller, id, &job); !st.ok()) return st;
   const std::string path = EvaluationPath(m.FilePath(id));
   if (!fs::exists(path))
     return Error(ServiceCode::kNotFound, "job " + std::to_string(id) + " has no evaluation" +
@@ -446,10 +457,10 @@ ServiceStatus JobService::GetEvaluation(int64_t id, v1::DesignEvaluation* out) {
   return ServiceStatus::Ok();
 }
 
-ServiceStatus JobService::ExportDesign(const v1::ExportDesignRequest& req, v1::ExportDesignResponse* out) {
+ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDesignRequest& req, v1::ExportDesignResponse* out) {
   Impl& m = *impl_;
   v1::Job job;
-  if (ServiceStatus st = m.FindJob(req.id(), &job); !st.ok()) return st;
+  if (ServiceStatus st = m.FindJob(caller, req.id(), &job); !st.ok()) return st;
   const int k = req.iteration() < 0 ? job.iterations() - 1 : req.iteration();
   if (k < 0 || k >= job.iterations())
     return Error(ServiceCode::kNotFound, "job " + std::to_string(req.id()) + ": iteration " + std::to_string(req.iteration()) + " is not stored (" +
@@ -470,8 +481,10 @@ ServiceStatus JobService::ExportDesign(const v1::ExportDesignRequest& req, v1::E
   return ServiceStatus::Ok();
 }
 
-ServiceStatus JobService::LeaseJob(const v1::LeaseJobRequest& req, v1::LeaseJobResponse* out, const std::function<bool()>& cancelled) {
+ServiceStatus JobService::LeaseJob(const Caller& caller, const v1::LeaseJobRequest& req, v1::LeaseJobResponse* out,
+                                   const std::function<bool()>& cancelled) {
   Impl& m = *impl_;
+  if (caller.role == Role::kUser) return Error(ServiceCode::kPermissionDenied, "only a worker's token may lease jobs");
   const double deadline = Now() + std::clamp(req.wait_s(), 0.0, 60.0);
   uint64_t seen = m.CurrentVersion();
   while (!m.draining && !m.stopping && !cancelled()) {
@@ -514,9 +527,10 @@ ServiceStatus JobService::LeaseJob(const v1::LeaseJobRequest& req, v1::LeaseJobR
   return ServiceStatus::Ok();
 }
 
-ServiceStatus JobService::RunJob(const std::function<bool(v1::WorkerMessage*)>& read,
+ServiceStatus JobService::RunJob(const Caller& caller, const std::function<bool(v1::WorkerMessage*)>& read,
                                  const std::function<bool(const v1::ServerMessage&)>& write, const std::function<bool()>& cancelled) {
   Impl& m = *impl_;
+  if (caller.role == Role::kUser) return Error(ServiceCode::kPermissionDenied, "only a worker's token may run jobs");
   v1::WorkerMessage msg;
   if (!read(&msg)) return ServiceStatus::Ok();
   const std::string lease_id = msg.lease_id();

@@ -26,6 +26,7 @@
 
 #include "core/util/status.h"
 #include "kgd/v1/kgd.pb.h"
+#include "server/auth.h"
 
 namespace kgd::server {
 
@@ -60,6 +61,7 @@ struct JobServiceOptions {
   double lease_duration_s = 30;
   int max_attempts = 5;
   bool quiet = false;  // no log lines on stderr
+  TokenTable tokens;   // no tokens: one anonymous caller that may do everything
 };
 
 class JobService {
@@ -72,34 +74,43 @@ class JobService {
 
   const JobServiceOptions& options() const;
 
+  // The caller of a request from its authorization value ("Bearer TOKEN"), or from a bare token;
+  // errors (for UNAUTHENTICATED) say what is missing or wrong, never the token.
+  Result<Caller> Authenticate(const std::string& authorization) const;
+  Result<Caller> AuthenticateToken(const std::string& token) const;
+
   // -- For clients ---------------------------------------------------------------------------------
+  // Every call names its caller (server/auth.h). A `user` sees only the jobs it created: another's
+  // job is NOT_FOUND, as if it did not exist; an `admin` sees all; a `worker` may not call these
+  // (PERMISSION_DENIED).
   // The built-in scenes and the parametric body's measurements (a fixed table: nothing is built).
   ServiceStatus ListScenes(v1::ListScenesResponse* response);
   // Prometheus text exposition of the service's figures (server/service_metrics.h).
   std::string MetricsText();
-  ServiceStatus CreateJob(const v1::CreateJobRequest& request, v1::Job* job);
-  ServiceStatus GetJob(int64_t id, v1::Job* job);
-  ServiceStatus ListJobs(const v1::ListJobsRequest& request, v1::ListJobsResponse* response);
-  ServiceStatus CancelJob(int64_t id, v1::Job* job);
-  ServiceStatus GetIteration(const v1::GetIterationRequest& request, v1::GetIterationResponse* response);
+  ServiceStatus CreateJob(const Caller& caller, const v1::CreateJobRequest& request, v1::Job* job);
+  ServiceStatus GetJob(const Caller& caller, int64_t id, v1::Job* job);
+  ServiceStatus ListJobs(const Caller& caller, const v1::ListJobsRequest& request, v1::ListJobsResponse* response);
+  ServiceStatus CancelJob(const Caller& caller, int64_t id, v1::Job* job);
+  ServiceStatus GetIteration(const Caller& caller, const v1::GetIterationRequest& request, v1::GetIterationResponse* response);
   // The finished design over the motion and beside the baselines (DIR/jobs/job-N.evaluation.h5).
-  ServiceStatus GetEvaluation(int64_t id, v1::DesignEvaluation* evaluation);
+  ServiceStatus GetEvaluation(const Caller& caller, int64_t id, v1::DesignEvaluation* evaluation);
   // Cut files of one stored iteration, by geometry alone (job/fabrication_export.h, ExportGeometry).
-  ServiceStatus ExportDesign(const v1::ExportDesignRequest& request, v1::ExportDesignResponse* response);
+  ServiceStatus ExportDesign(const Caller& caller, const v1::ExportDesignRequest& request, v1::ExportDesignResponse* response);
   // Sends the job, its stored iterations from request.from_iteration(), then every new one and every
   // state change as they come, until the job ends (OK), `write` returns false (the client is gone:
   // OK) or `cancelled` returns true / the service stops (CANCELLED).
-  ServiceStatus WatchJob(const v1::WatchJobRequest& request, const std::function<bool(const v1::WatchJobEvent&)>& write,
+  ServiceStatus WatchJob(const Caller& caller, const v1::WatchJobRequest& request, const std::function<bool(const v1::WatchJobEvent&)>& write,
                          const std::function<bool()>& cancelled);
 
   // -- For workers ---------------------------------------------------------------------------------
+  // Callers with the `worker` or `admin` role; a `user` gets PERMISSION_DENIED.
   // Leases the oldest queued job, waiting up to request.wait_s() for one (response.leased() false when
   // none came, or the service drains or stops).
-  ServiceStatus LeaseJob(const v1::LeaseJobRequest& request, v1::LeaseJobResponse* response, const std::function<bool()>& cancelled);
+  ServiceStatus LeaseJob(const Caller& caller, const v1::LeaseJobRequest& request, v1::LeaseJobResponse* response, const std::function<bool()>& cancelled);
   // One worker's RunJob stream on a leased job: `read` gives the worker's messages (false: the stream
   // ended), `write` sends the replies. Returns when the worker ends the lease, the stream ends, or the
   // service refuses a report (the lease ends and the job is queued again or fails).
-  ServiceStatus RunJob(const std::function<bool(v1::WorkerMessage*)>& read, const std::function<bool(const v1::ServerMessage&)>& write,
+  ServiceStatus RunJob(const Caller& caller, const std::function<bool(v1::WorkerMessage*)>& read, const std::function<bool(const v1::ServerMessage&)>& write,
                        const std::function<bool()>& cancelled);
 
   // -- Life cycle ----------------------------------------------------------------------------------

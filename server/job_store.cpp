@@ -53,6 +53,10 @@ CREATE TABLE iterations (
   PRIMARY KEY (job_id, iteration)
 ) WITHOUT ROWID;
 )sql",
+    R"sql(
+ALTER TABLE jobs ADD COLUMN owner TEXT NOT NULL DEFAULT '';
+CREATE INDEX jobs_by_owner ON jobs(owner, id);
+)sql",
 };
 constexpr int kNumMigrations = sizeof(kMigrations) / sizeof(kMigrations[0]);
 static_assert(kNumMigrations == kSchemaVersion);
@@ -116,7 +120,7 @@ std::string MetricColumns() {
 Status SqlError(const std::string& what, const std::string& error) { return Status::Error("job store: " + what + ": " + error); }
 
 const char kJobColumns[] =
-    "id, spec, state, create_time_s, update_time_s, attempts, iterations, failure, lease_worker, cancel_requested, garment_faces";
+    "id, spec, state, create_time_s, update_time_s, attempts, iterations, failure, lease_worker, cancel_requested, garment_faces, owner";
 
 }  // namespace
 
@@ -165,10 +169,10 @@ Status JobStore::Exec(const std::string& sql) {
   return Status::Ok();
 }
 
-Result<int64_t> JobStore::CreateJob(const v1::JobSpec& spec, int max_attempts, double now) {
+Result<int64_t> JobStore::CreateJob(const v1::JobSpec& spec, int max_attempts, double now, const std::string& owner) {
   std::lock_guard lock(mu_);
-  Stmt s(db_, "INSERT INTO jobs(spec, state, create_time_s, update_time_s, max_attempts) VALUES(?, ?, ?, ?, ?)");
-  s.BindBlob(1, spec.SerializeAsString()).Bind(2, static_cast<int>(v1::QUEUED)).Bind(3, now).Bind(4, now).Bind(5, max_attempts);
+  Stmt s(db_, "INSERT INTO jobs(spec, state, create_time_s, update_time_s, max_attempts, owner) VALUES(?, ?, ?, ?, ?, ?)");
+  s.BindBlob(1, spec.SerializeAsString()).Bind(2, static_cast<int>(v1::QUEUED)).Bind(3, now).Bind(4, now).Bind(5, max_attempts).Bind(6, owner);
   if (!s.Run()) return SqlError("create job", s.error());
   return static_cast<int64_t>(sqlite3_last_insert_rowid(db_));
 }
@@ -190,6 +194,7 @@ Result<v1::Job> JobStore::ReadJob(sqlite3_stmt* row) {
   if (job.state() == v1::RUNNING) job.set_worker(col_text(8));
   job.set_cancel_requested(sqlite3_column_int(row, 9) != 0);
   job.set_garment_faces(sqlite3_column_int(row, 10));
+  job.set_owner(col_text(11));
   if (job.iterations() > 0) {
     Result<std::vector<v1::IterationMetrics>> last = Metrics(job.id(), job.iterations() - 1, job.iterations());
     if (!last.ok()) return last.status();
@@ -218,15 +223,17 @@ std::optional<std::pair<v1::JobState, int>> JobStore::Progress(int64_t id) {
   return std::make_pair(static_cast<v1::JobState>(s.Int(0)), static_cast<int>(s.Int(1)));
 }
 
-Result<std::vector<v1::Job>> JobStore::ListJobs(v1::JobState state, int64_t before_id, int limit) {
+Result<std::vector<v1::Job>> JobStore::ListJobs(v1::JobState state, int64_t before_id, int limit, const std::optional<std::string>& owner) {
   std::lock_guard lock(mu_);
   std::string sql = std::string("SELECT ") + kJobColumns + " FROM jobs WHERE id < ?";
   if (state != v1::JOB_STATE_UNSPECIFIED) sql += " AND state = ?";
+  if (owner) sql += " AND owner = ?";
   sql += " ORDER BY id DESC LIMIT ?";
   Stmt s(db_, sql);
   int k = 1;
   s.Bind(k++, before_id > 0 ? before_id : std::numeric_limits<int64_t>::max());
   if (state != v1::JOB_STATE_UNSPECIFIED) s.Bind(k++, static_cast<int>(state));
+  if (owner) s.Bind(k++, *owner);
   s.Bind(k++, limit);
   std::vector<v1::Job> out;
   int rc;
@@ -246,6 +253,13 @@ std::vector<int64_t> JobStore::JobsInState(v1::JobState state) {
   std::vector<int64_t> out;
   while (s.Step() == SQLITE_ROW) out.push_back(s.Int(0));
   return out;
+}
+
+int64_t JobStore::QueuedJobsOf(const std::string& owner) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, "SELECT COUNT(*) FROM jobs WHERE owner = ? AND state = ?");
+  s.Bind(1, owner).Bind(2, static_cast<int>(v1::QUEUED));
+  return s.Step() == SQLITE_ROW ? s.Int(0) : 0;
 }
 
 std::map<v1::JobState, int64_t> JobStore::CountByState() {

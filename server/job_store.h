@@ -25,7 +25,7 @@
 
 namespace kgd::server {
 
-inline constexpr int kSchemaVersion = 1;
+inline constexpr int kSchemaVersion = 2;
 
 struct Lease {
   std::string lease_id;
@@ -44,13 +44,16 @@ class JobStore {
   static Result<std::unique_ptr<JobStore>> Open(const std::string& path);
   ~JobStore();
 
-  Result<int64_t> CreateJob(const v1::JobSpec& spec, int max_attempts, double now);
+  Result<int64_t> CreateJob(const v1::JobSpec& spec, int max_attempts, double now, const std::string& owner = "");
   // The job as clients see it (spec, state, counts, last metrics); nullopt when there is none.
   Result<std::optional<v1::Job>> GetJob(int64_t id);
   // Newest first, ids below `before_id` (0: from the newest); `state` UNSPECIFIED: all.
   // A job's state and stored iteration count alone (the cheap poll of watchers); nullopt: no such job.
   std::optional<std::pair<v1::JobState, int>> Progress(int64_t id);
-  Result<std::vector<v1::Job>> ListJobs(v1::JobState state, int64_t before_id, int limit);
+  // `owner` given: that user's jobs only.
+  Result<std::vector<v1::Job>> ListJobs(v1::JobState state, int64_t before_id, int limit, const std::optional<std::string>& owner = {});
+  // Jobs of `owner` waiting in the queue.
+  int64_t QueuedJobsOf(const std::string& owner);
   std::vector<int64_t> JobsInState(v1::JobState state);
   // Jobs in each state (states without jobs are absent).
   std::map<v1::JobState, int64_t> CountByState();

@@ -7,6 +7,7 @@
 #include "core/util/termination.h"
 #include "server/design_server.h"
 #include "server/http_gateway.h"
+#include "server/security_flags.h"
 
 int main(int argc, char** argv) {
   kgd::server::ServerOptions o;
@@ -30,7 +31,13 @@ int main(int argc, char** argv) {
   app.add_option("--max-upload-mb", max_upload_mb, "Largest HTTP request body accepted (MiB)")->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--max-watchers", http.max_watchers, "Open HTTP watch streams (Server-Sent Events) served at once")
       ->check(CLI::PositiveNumber)->capture_default_str();
+  kgd::server::SecurityFlags security;
+  kgd::server::AddSecurityFlags(&app, &security);
   CLI11_PARSE(app, argc, argv);
+  if (kgd::Status st = kgd::server::ApplySecurityFlags(security, &o, &http); !st.ok()) {
+    std::fprintf(stderr, "kgd-server: %s\n", st.message().c_str());
+    return 1;
+  }
   http.max_upload_bytes = static_cast<size_t>(max_upload_mb * (1 << 20));
   o.max_message_bytes = static_cast<int>(max_message_mb * (1 << 20));
 

@@ -49,6 +49,7 @@ struct DesignWorker::Impl {
       req.set_wait_s(2);
       v1::LeaseJobResponse lease;
       grpc::ClientContext ctx;
+      Authorize(options.connection, &ctx);
       ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
       const grpc::Status st = stub->LeaseJob(&ctx, req, &lease);
       if (!st.ok()) {
@@ -66,6 +67,7 @@ struct DesignWorker::Impl {
     Log("job " + std::to_string(lease.job_id()) + ": attempt " + std::to_string(lease.attempt()) +
         (lease.history_size() ? ", resuming after iteration " + std::to_string(lease.history_size() - 1) : ""));
     grpc::ClientContext ctx;
+    Authorize(options.connection, &ctx);
     std::unique_ptr<grpc::ClientReaderWriter<v1::WorkerMessage, v1::ServerMessage>> stream = stub->RunJob(&ctx);
     std::mutex write_mu;
     auto send = [&](v1::WorkerMessage msg) {
@@ -213,8 +215,11 @@ Result<std::unique_ptr<DesignWorker>> DesignWorker::Start(const WorkerOptions& o
   // Reconnect quickly after a server restart (the default backoff grows to two minutes).
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 1000);
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
-  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
-  m.channel = grpc::CreateCustomChannel(options.server, grpc::InsecureChannelCredentials(), args);
+  // Not GRPC_ARG_MIN_RECONNECT_BACKOFF_MS: gRPC takes it as the connect timeout too, and a TLS
+  // handshake does not finish in 100 ms on a loaded machine (the worker would never connect).
+  Result<std::shared_ptr<grpc::Channel>> channel = OpenChannel(options.connection, args);
+  if (!channel.ok()) return channel.status();
+  m.channel = std::move(channel).value();
   m.stub = v1::WorkerService::NewStub(m.channel);
   for (int i = 0; i < options.jobs; ++i) m.slots.emplace_back([&m, i] { m.Slot(i); });
   return w;

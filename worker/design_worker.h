@@ -12,11 +12,12 @@
 #include <string>
 
 #include "core/util/status.h"
+#include "proto/connection.h"
 
 namespace kgd::worker {
 
 struct WorkerOptions {
-  std::string server = "127.0.0.1:7447";  // host:port of the design server
+  Connection connection;                  // the design server: address, worker token, TLS CA
   int jobs = 1;                           // jobs run at once (threads)
   std::string name;                       // shown by the server; default host:pid
   bool quiet = false;

@@ -10,8 +10,11 @@
 int main(int argc, char** argv) {
   kgd::PinNumericKernels(argv);  // the same designs on every machine (may execute the program again)
   kgd::worker::WorkerOptions o;
+  o.connection = kgd::ConnectionFromEnvironment();
   CLI::App app("kgd-worker: runs kinesthetic garment design jobs for a kgd-server");
-  app.add_option("--server", o.server, "The server, host:port")->capture_default_str();
+  app.add_option("--server", o.connection.server, "The server, host:port (default: $KGD_SERVER or 127.0.0.1:7447)")->capture_default_str();
+  app.add_option("--token", o.connection.token, "The worker's token, for a server with --auth-tokens (default: $KGD_TOKEN)");
+  app.add_option("--tls-ca", o.connection.tls_ca, "PEM file of the CA that signed the server's certificate: connect over TLS (default: $KGD_TLS_CA)");
   app.add_option("--jobs", o.jobs, "Jobs run at once")->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--name", o.name, "Name shown by the server (default host:pid)");
   app.add_flag("--quiet", o.quiet, "No log lines");

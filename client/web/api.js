@@ -8,6 +8,30 @@ export class ApiError extends Error {
   }
 }
 
+// A server started with --auth-tokens wants a bearer token: asked for once, kept in this browser
+// (localStorage), sent as the Authorization header, and as the cookie kgd_token for what cannot send
+// headers (EventSource, download links: GET only).
+let token = localStorage.getItem('kgd_token') || '';
+export function setToken(value) {
+  token = value;
+  localStorage.setItem('kgd_token', value);
+  document.cookie = `kgd_token=${encodeURIComponent(value)}; path=/; SameSite=Strict`;
+}
+if (token) setToken(token);
+
+async function request(path, init = {}) {
+  const send = () => fetch(path, { ...init, headers: { ...(init.headers || {}), ...(token ? { Authorization: `Bearer ${token}` } : {}) } });
+  let res = await send();
+  if (res.status === 401) {
+    const value = window.prompt('This kgd server needs your access token:', '');
+    if (value) {
+      setToken(value.trim());
+      res = await send();
+    }
+  }
+  return res;
+}
+
 async function check(res) {
   if (res.ok) return res;
   let body = null;
@@ -16,19 +40,19 @@ async function check(res) {
   throw new ApiError(e ? e.status : 'UNKNOWN', res.status, e ? e.message : `HTTP ${res.status}`);
 }
 
-export async function getJson(path) { return (await check(await fetch(path))).json(); }
+export async function getJson(path) { return (await check(await request(path))).json(); }
 
 export async function postJson(path, body) {
-  const res = await fetch(path, { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body ?? {}) });
+  const res = await request(path, { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body ?? {}) });
   return (await check(res)).json();
 }
 
-export async function postForm(path, form) { return (await check(await fetch(path, { method: 'POST', body: form }))).json(); }
+export async function postForm(path, form) { return (await check(await request(path, { method: 'POST', body: form }))).json(); }
 
 // Little-endian typed arrays from the binary endpoints.
-export async function getFloat32(path) { return new Float32Array(await (await check(await fetch(path))).arrayBuffer()); }
-export async function getUint32(path) { return new Uint32Array(await (await check(await fetch(path))).arrayBuffer()); }
-export async function getUint8(path) { return new Uint8Array(await (await check(await fetch(path))).arrayBuffer()); }
+export async function getFloat32(path) { return new Float32Array(await (await check(await request(path))).arrayBuffer()); }
+export async function getUint32(path) { return new Uint32Array(await (await check(await request(path))).arrayBuffer()); }
+export async function getUint8(path) { return new Uint8Array(await (await check(await request(path))).arrayBuffer()); }
 
 export const scenes = () => getJson('/v1/scenes');
 export const jobs = (pageSize = 50) => getJson(`/v1/jobs?pageSize=${pageSize}`);
