@@ -137,7 +137,8 @@ Result<std::unique_ptr<DesignServer>> DesignServer::Start(const ServerOptions& o
                                                                   .lease_duration_s = options.lease_duration_s,
                                                                   .max_attempts = options.max_attempts,
                                                                   .quiet = options.quiet,
-                                                                  .tokens = options.tokens});
+                                                                  .tokens = options.tokens,
+                                                                  .limits = options.limits});
   if (!service.ok()) return service.status();
   m.service = std::move(service).value();
   m.services = std::make_unique<GrpcServices>(m.service.get());

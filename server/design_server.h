@@ -26,6 +26,7 @@ struct ServerOptions {
   // whose main port takes TLS; empty: none.
   std::string internal_address;
   bool insecure = false;                   // allow a non-loopback address without TLS and tokens
+  ServiceLimits limits;                    // what a request or user may ask (server/job_service.h)
 };
 
 class DesignServer {

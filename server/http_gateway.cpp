@@ -520,9 +520,8 @@ void HttpGateway::Impl::Watch(const httplib::Request& req, httplib::Response& re
   }
   r.set_from_iteration(static_cast<int>(std::min<long long>(from, 1 << 30)));
   const bool metrics_only = req.get_param_value("view") == "metrics";
-  // An unknown job is an error response, not an empty stream.
-  v1::Job job;
-  if (ServiceStatus st = service->GetJob(CallerOf(req), id, &job); !st.ok()) return SetError(res, st);
+  // An unknown job, or one watched by as many as the limit, is an error response, not an empty stream.
+  if (ServiceStatus st = service->CanWatch(CallerOf(req), id); !st.ok()) return SetError(res, st);
   if (watchers.fetch_add(1) >= options.max_watchers) {
     --watchers;
     return SetError(res, 429, ServiceCode::kResourceExhausted,
@@ -540,7 +539,7 @@ void HttpGateway::Impl::Watch(const httplib::Request& req, httplib::Response& re
       return !gone;
     };
     send("retry: 2000\n\n");
-    service->WatchJob(
+    const ServiceStatus st = service->WatchJob(
         caller, r,
         [&](const v1::WatchJobEvent& ev) {
           if (ev.has_job()) return send("event: job\ndata: " + ToJson(ev.job()) + "\n\n");
@@ -554,6 +553,9 @@ void HttpGateway::Impl::Watch(const httplib::Request& req, httplib::Response& re
           if (Clock::now() - last_write > std::chrono::duration<double>(options.keepalive_s)) send(": keepalive\n\n");
           return gone;
         });
+    // A refusal after the check above (the limit reached meanwhile) ends the stream with its reason.
+    if (!st.ok() && st.code != ServiceCode::kCancelled)
+      send("event: error\ndata: {\"status\": \"" + std::string(ServiceCodeName(st.code)) + "\", \"message\": \"" + JsonEscape(st.message) + "\"}\n\n");
     sink.done();
     return true;
   }, [this](bool) { --watchers; });

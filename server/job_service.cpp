@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <sstream>
 #include <thread>
 
 #include "core/scene/builtin_scenes.h"
@@ -28,6 +29,63 @@ double Now() { return std::chrono::duration<double>(std::chrono::system_clock::n
 
 ServiceStatus Error(ServiceCode code, std::string message) { return ServiceStatus{code, std::move(message)}; }
 ServiceStatus Internal(const Status& st) { return Error(ServiceCode::kInternal, st.message()); }
+
+}  // namespace
+
+namespace {
+
+std::string FormatLimit(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%g", v);
+  return buf;
+}
+
+// Vertices and faces of a mesh file's bytes, by its lines (OBJ: v, f) or header (PLY: element).
+std::pair<int64_t, int64_t> CountMesh(const std::string& bytes) {
+  int64_t vertices = 0, faces = 0;
+  if (bytes.rfind("ply", 0) == 0) {
+    std::istringstream header(bytes.substr(0, std::min<size_t>(bytes.size(), 4096)));
+    std::string line;
+    while (std::getline(header, line) && line.rfind("end_header", 0) != 0) {
+      std::istringstream f(line);
+      std::string word, kind;
+      int64_t n = 0;
+      if (f >> word >> kind >> n && word == "element") (kind == "vertex" ? vertices : kind == "face" ? faces : n) = n;
+    }
+    return {vertices, faces};
+  }
+  for (size_t at = 0; at < bytes.size();) {
+    size_t end = bytes.find('\n', at);
+    if (end == std::string::npos) end = bytes.size();
+    if (end - at > 1 && bytes[at + 1] == ' ') {
+      if (bytes[at] == 'v') ++vertices;
+      if (bytes[at] == 'f') ++faces;
+    }
+    at = end + 1;
+  }
+  return {vertices, faces};
+}
+
+// The limits a job spec can break before it is validated: iterations, uploaded meshes, frames.
+ServiceStatus CheckLimits(const ServiceLimits& limits, const v1::JobSpec& spec) {
+  auto over = [](const std::string& what, int64_t value, int64_t limit, const std::string& flag) {
+    return Error(ServiceCode::kResourceExhausted, what + " " + std::to_string(value) + " is over the limit of " + std::to_string(limit) + " (" + flag + ")");
+  };
+  if (limits.max_iterations > 0 && spec.optimizer().max_iterations() > limits.max_iterations)
+    return over("optimizer.maxIterations", spec.optimizer().max_iterations(), limits.max_iterations, "--max-iterations");
+  if (!spec.has_scene_files()) return ServiceStatus::Ok();
+  const v1::SceneFiles& files = spec.scene_files();
+  if (limits.max_frames > 0 && files.scene().body().frames_size() > limits.max_frames)
+    return over("body.frames: " + std::to_string(files.scene().body().frames_size()) + " frames;", files.scene().body().frames_size(),
+                limits.max_frames, "--max-frames");
+  for (const auto& [name, bytes] : files.files()) {
+    const auto [vertices, faces] = CountMesh(bytes);
+    if (limits.max_mesh_vertices > 0 && vertices > limits.max_mesh_vertices)
+      return over(name + ": vertices", vertices, limits.max_mesh_vertices, "--max-mesh-vertices");
+    if (limits.max_mesh_faces > 0 && faces > limits.max_mesh_faces) return over(name + ": faces", faces, limits.max_mesh_faces, "--max-mesh-faces");
+  }
+  return ServiceStatus::Ok();
+}
 
 }  // namespace
 
@@ -61,6 +119,38 @@ struct JobService::Impl {
   };
   std::map<int64_t, OpenFile> files;
   ServiceMetrics metrics;
+
+  // Limits kept in memory: open watches per job, and each user's job-creation bucket.
+  std::mutex limits_mu;
+  std::map<int64_t, int> watchers;
+  struct Bucket {
+    double tokens = 0, time = -1;
+  };
+  std::map<std::string, Bucket> creations;
+
+  // RESOURCE_EXHAUSTED when job `id` has as many open watches as the limit; call under limits_mu.
+  ServiceStatus WatchLimit(int64_t id) {
+    const int limit = options.limits.max_watchers_per_job;
+    auto it = watchers.find(id);
+    if (limit > 0 && it != watchers.end() && it->second >= limit)
+      return Error(ServiceCode::kResourceExhausted,
+                   "job " + std::to_string(id) + " has " + std::to_string(limit) + " open watches, the limit (--max-watchers-per-job)");
+    return ServiceStatus::Ok();
+  }
+
+  // Takes one job creation from `user`'s bucket (max_jobs_per_minute per minute, burst of as many).
+  bool TakeCreation(const std::string& user) {
+    const double rate = options.limits.max_jobs_per_minute;
+    if (rate <= 0) return true;
+    std::lock_guard lock(limits_mu);
+    Bucket& b = creations[user];
+    const double now = Now();
+    b.tokens = b.time < 0 ? rate : std::min(rate, b.tokens + (now - b.time) * rate / 60);
+    b.time = now;
+    if (b.tokens < 1) return false;
+    b.tokens -= 1;
+    return true;
+  }
 
   // Anything a watcher or a waiting worker may care about bumps `version`.
   std::mutex event_mu;
@@ -174,6 +264,11 @@ struct JobService::Impl {
     if (record.metrics().iteration() != w.num_iterations())
       return Status::Error("job " + std::to_string(job_id) + ": iteration " + std::to_string(record.metrics().iteration()) + " reported after " +
                            std::to_string(w.num_iterations()) + " stored");
+    const int64_t max_bytes = options.limits.max_design_file_bytes;
+    std::error_code size_error;
+    if (const auto size = fs::file_size(FilePath(job_id), size_error); max_bytes > 0 && !size_error && static_cast<int64_t>(size) > max_bytes)
+      return Status::Error("job " + std::to_string(job_id) + ": its design file has reached " + std::to_string(size >> 20) +
+                           " MiB, the limit (--max-design-file-mb)");
     Result<BesoIteration> it_rec = RecordFromProto(record, w.faces(), w.vertices());
     if (!it_rec.ok()) return it_rec.status();
     const auto t0 = std::chrono::steady_clock::now();
@@ -296,7 +391,16 @@ ServiceStatus JobService::CreateJob(const Caller& caller, const v1::CreateJobReq
   Impl& m = *impl_;
   if (caller.role == Role::kWorker) return Error(ServiceCode::kPermissionDenied, "a worker's token cannot create jobs");
   if (m.draining || m.stopping) return Error(ServiceCode::kUnavailable, "the server is shutting down");
+  if (ServiceStatus st = CheckLimits(m.options.limits, req.spec()); !st.ok()) return st;
   if (Status st = ValidateJobSpec(req.spec()); !st.ok()) return Error(ServiceCode::kInvalidArgument, st.message());
+  const ServiceLimits& limits = m.options.limits;
+  if (limits.max_queued_per_user > 0 && m.store->QueuedJobsOf(caller.user) >= limits.max_queued_per_user)
+    return Error(ServiceCode::kResourceExhausted, (caller.user.empty() ? std::string("the queue") : "user " + caller.user) + " has " +
+                                                      std::to_string(limits.max_queued_per_user) +
+                                                      " jobs waiting, the limit (--max-queued-per-user); wait for some to start or cancel them");
+  if (!m.TakeCreation(caller.user))
+    return Error(ServiceCode::kResourceExhausted, "more than " + FormatLimit(limits.max_jobs_per_minute) +
+                                                      " jobs created per minute (--max-jobs-per-minute); try again in a few seconds");
   Result<int64_t> id = m.store->CreateJob(req.spec(), m.options.max_attempts, Now(), caller.user);
   if (!id.ok()) return Internal(id.status());
   Result<std::optional<v1::Job>> job = m.store->GetJob(*id);
@@ -379,17 +483,35 @@ ServiceStatus JobService::CancelJob(const Caller& caller, int64_t id, v1::Job* o
   return ServiceStatus::Ok();
 }
 
+ServiceStatus JobService::CanWatch(const Caller& caller, int64_t id) {
+  Impl& m = *impl_;
+  v1::Job job;
+  if (ServiceStatus st = m.FindJob(caller, id, &job); !st.ok()) return st;
+  std::lock_guard lock(m.limits_mu);
+  return m.WatchLimit(id);
+}
+
 ServiceStatus JobService::WatchJob(const Caller& caller, const v1::WatchJobRequest& req, const std::function<bool(const v1::WatchJobEvent&)>& write,
                                    const std::function<bool()>& cancelled) {
   Impl& m = *impl_;
   if (req.from_iteration() < 0) return Error(ServiceCode::kInvalidArgument, "from_iteration: must not be negative");
   v1::Job job;
   if (ServiceStatus st = m.FindJob(caller, req.id(), &job); !st.ok()) return st;
+  {
+    std::lock_guard lock(m.limits_mu);
+    if (ServiceStatus st = m.WatchLimit(req.id()); !st.ok()) return st;
+    ++m.watchers[req.id()];
+  }
   m.metrics.WatcherOpened();
   struct Closed {
-    ServiceMetrics& metrics;
-    ~Closed() { metrics.WatcherClosed(); }
-  } closed{m.metrics};
+    Impl& m;
+    int64_t id;
+    ~Closed() {
+      m.metrics.WatcherClosed();
+      std::lock_guard lock(m.limits_mu);
+      if (--m.watchers[id] <= 0) m.watchers.erase(id);
+    }
+  } closed{m, req.id()};
   v1::WatchJobEvent first;
   *first.mutable_job() = job;
   if (!write(first)) return ServiceStatus::Ok();

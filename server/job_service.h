@@ -56,12 +56,26 @@ struct ServiceStatus {
   static ServiceStatus Ok() { return {}; }
 };
 
+// What one request or user may ask of the service; beyond a limit the answer is RESOURCE_EXHAUSTED
+// naming the limit, the value asked for and the flag that sets it. 0: no limit.
+struct ServiceLimits {
+  int max_iterations = 2000;               // a job's optimizer.max_iterations (--max-iterations)
+  int64_t max_mesh_vertices = 500000;      // vertices of each uploaded mesh file (--max-mesh-vertices)
+  int64_t max_mesh_faces = 1000000;        // faces of each uploaded mesh file (--max-mesh-faces)
+  int max_frames = 200;                    // motion frames of an uploaded scene (--max-frames)
+  int max_queued_per_user = 50;            // a user's jobs waiting in the queue (--max-queued-per-user)
+  int max_watchers_per_job = 64;           // open watches of one job, gRPC and HTTP (--max-watchers-per-job)
+  int64_t max_design_file_bytes = int64_t(4) << 30;  // a job's design file; beyond it the job fails
+  double max_jobs_per_minute = 30;         // job creations per user per minute, burst of as many (--max-jobs-per-minute)
+};
+
 struct JobServiceOptions {
   std::string data_dir;  // created if missing
   double lease_duration_s = 30;
   int max_attempts = 5;
   bool quiet = false;  // no log lines on stderr
   TokenTable tokens;   // no tokens: one anonymous caller that may do everything
+  ServiceLimits limits;
 };
 
 class JobService {
@@ -99,6 +113,8 @@ class JobService {
   // Sends the job, its stored iterations from request.from_iteration(), then every new one and every
   // state change as they come, until the job ends (OK), `write` returns false (the client is gone:
   // OK) or `cancelled` returns true / the service stops (CANCELLED).
+  // What WatchJob would refuse at once: an unknown job, one watched by as many as the limit.
+  ServiceStatus CanWatch(const Caller& caller, int64_t id);
   ServiceStatus WatchJob(const Caller& caller, const v1::WatchJobRequest& request, const std::function<bool(const v1::WatchJobEvent&)>& write,
                          const std::function<bool()>& cancelled);
 

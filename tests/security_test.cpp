@@ -7,6 +7,7 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -364,6 +365,117 @@ TEST(SecurityTls, GrpcAndHttpRoundTripsOverTlsWithAThrowawayCa) {
   httplib::Client plain("127.0.0.1", tls.http_port());
   EXPECT_FALSE(plain.Get("/v1/jobs")) << "plain HTTP answered on the HTTPS port";
   fs::remove_all(certs);
+}
+
+}  // namespace
+}  // namespace kgd
+
+namespace kgd {
+namespace {
+
+// A kgd-server without tokens and with the given limits, its HTTP door, and optionally a worker.
+struct LimitedService {
+  std::string dir;
+  int http_port = 0;
+  std::string grpc;
+  Process server, worker;
+  LimitedService(const std::string& name, const std::vector<std::string>& limits, bool with_worker) {
+    dir = (fs::temp_directory_path() / ("kgd_security_limits_" + std::to_string(getpid()) + "_" + name)).string();
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    grpc = "127.0.0.1:" + std::to_string(FreePort());
+    http_port = FreePort();
+    std::vector<std::string> args = {KGD_SERVER_BINARY, "--data", dir + "/data", "--listen", grpc, "--http", "127.0.0.1:" + std::to_string(http_port)};
+    args.insert(args.end(), limits.begin(), limits.end());
+    server = Process::Spawn(args, dir + "/server.log");
+    if (with_worker) worker = Process::Spawn({KGD_WORKER_BINARY, "--server", grpc, "--name", "w"}, dir + "/worker.log");
+    WaitFor([&] { return ReadText(dir + "/server.log").find("http on") != std::string::npos; }, 30);
+  }
+  ~LimitedService() { fs::remove_all(dir); }
+  httplib::Client Http() const {
+    httplib::Client c("127.0.0.1", http_port);
+    c.set_read_timeout(60, 0);
+    return c;
+  }
+};
+
+// The response's status name and message, e.g. {"RESOURCE_EXHAUSTED", "..."}; {"OK", body} on success.
+std::pair<std::string, std::string> Outcome(const httplib::Result& res) {
+  if (!res) return {"NO_RESPONSE", httplib::to_string(res.error())};
+  if (res->status == 200) return {"OK", res->body};
+  const size_t s = res->body.find("\"status\": \"");
+  return {s == std::string::npos ? "?" : res->body.substr(s + 11, res->body.find('"', s + 11) - s - 11), res->body};
+}
+
+std::string Job(int iterations) {
+  return R"({"builtinScene": "sleeve_on_limb", "optimizer": {"maxIterations": )" + std::to_string(iterations) + "}}";
+}
+
+TEST(SecurityLimits, EachLimitIsHitAndNamed) {
+  LimitedService s("requests",
+                   {"--max-iterations", "50", "--max-mesh-vertices", "10", "--max-mesh-faces", "10", "--max-frames", "2", "--max-queued-per-user", "2",
+                    "--max-watchers-per-job", "1", "--max-jobs-per-minute", "3"},
+                   false);
+  auto http = s.Http();
+  auto expect_limit = [](const httplib::Result& res, const std::string& named) {
+    const auto [status, message] = Outcome(res);
+    EXPECT_EQ(status, "RESOURCE_EXHAUSTED") << message;
+    EXPECT_NE(message.find(named), std::string::npos) << "the message names " << named << ": " << message;
+  };
+  expect_limit(http.Post("/v1/jobs", Job(51), "application/json"), "--max-iterations");
+  // An uploaded scene with a mesh of 12 vertices; then one with three motion frames.
+  std::string obj;
+  for (int i = 0; i < 12; ++i) obj += "v " + std::to_string(i) + " 0 0\n";
+  httplib::MultipartFormDataItems big_mesh = {{"scene", R"({"garment": {"rest": "m.obj"}})", "scene.json", "application/json"},
+                                              {"m.obj", obj, "m.obj", "text/plain"}};
+  expect_limit(http.Post("/v1/jobs", big_mesh), "m.obj: vertices 12 is over the limit of 10 (--max-mesh-vertices)");
+  std::string faces = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  for (int i = 0; i < 11; ++i) faces += "f 1 2 3\n";
+  httplib::MultipartFormDataItems many_faces = {{"scene", R"({"garment": {"rest": "m.obj"}})", "scene.json", "application/json"},
+                                                {"m.obj", faces, "m.obj", "text/plain"}};
+  expect_limit(http.Post("/v1/jobs", many_faces), "--max-mesh-faces");
+  httplib::MultipartFormDataItems frames = {
+      {"scene", R"({"body": {"rest": "r.obj", "deformed": "d.obj", "frames": ["a.obj", "b.obj", "c.obj"]}})", "scene.json", "application/json"}};
+  expect_limit(http.Post("/v1/jobs", frames), "--max-frames");
+  // Two jobs wait (no worker here); a third would be over the queue limit.
+  const auto first = Outcome(http.Post("/v1/jobs", Job(5), "application/json"));
+  ASSERT_EQ(first.first, "OK") << first.second;
+  ASSERT_EQ(Outcome(http.Post("/v1/jobs", Job(5), "application/json")).first, "OK");
+  expect_limit(http.Post("/v1/jobs", Job(5), "application/json"), "--max-queued-per-user");
+  // One watch of job 1 is open; a second is refused while it lasts.
+  std::atomic<bool> close{false}, open{false};
+  std::thread watch([&] {
+    s.Http().Get("/v1/jobs/1:watch?view=metrics", [&](const char*, size_t) {
+      open = true;
+      return !close.load();
+    });
+  });
+  ASSERT_TRUE(WaitFor([&] { return open.load(); }, 30));
+  expect_limit(http.Get("/v1/jobs/1:watch"), "--max-watchers-per-job");
+  close = true;
+  http.Post("/v1/jobs/1:cancel", "", "application/json");
+  watch.join();
+  // The third creation of the minute fits again in the queue; the fourth is over the rate.
+  ASSERT_EQ(Outcome(http.Post("/v1/jobs", Job(5), "application/json")).first, "OK");
+  http.Post("/v1/jobs/2:cancel", "", "application/json");
+  expect_limit(http.Post("/v1/jobs", Job(5), "application/json"), "--max-jobs-per-minute");
+  // Refusals change nothing stored: three jobs exist.
+  const auto list = Outcome(http.Get("/v1/jobs"));
+  EXPECT_EQ(list.first, "OK");
+  EXPECT_NE(list.second.find("\"id\":\"3\""), std::string::npos) << list.second;
+  EXPECT_EQ(list.second.find("\"id\":\"4\""), std::string::npos) << list.second;
+}
+
+TEST(SecurityLimits, AJobWhoseDesignFileOutgrowsTheLimitFailsNamingIt) {
+  LimitedService s("file", {"--max-design-file-mb", "0.05", "--max-attempts", "1"}, true);
+  auto http = s.Http();
+  ASSERT_EQ(Outcome(http.Post("/v1/jobs", Job(200), "application/json")).first, "OK");
+  std::string job;
+  ASSERT_TRUE(WaitFor([&] {
+    job = Outcome(http.Get("/v1/jobs/1")).second;
+    return job.find("\"state\":\"FAILED\"") != std::string::npos;
+  }, 300)) << job;
+  EXPECT_NE(job.find("--max-design-file-mb"), std::string::npos) << job;
 }
 
 }  // namespace
