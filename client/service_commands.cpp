@@ -525,6 +525,16 @@ void AddServiceCommands(CLI::App& app, int* exit_code) {
   AddServerOptions(cn, &c->server, "The design server, host:port");
   cn->callback([c, exit_code] { *exit_code = RunCancel(c->server, c->job); });
 
+  CLI::App* hl = app.add_subcommand("health", "Exit 0 when the design server answers gRPC health checking with SERVING (for probes)");
+  AddServerOptions(hl, &c->server, "The design server, host:port");
+  hl->callback([c, exit_code] {
+    Connection conn = ClientConnection();
+    conn.server = c->server;
+    const Status st = CheckHealth(conn, 5);
+    if (!st.ok()) std::fprintf(stderr, "kgd health: %s\n", st.message().c_str());
+    *exit_code = st.ok() ? 0 : 1;
+  });
+
   CLI::App* gt = app.add_subcommand("get", "Fetch one stored iteration of a job: metrics, and with --out its design on the garment as PLY");
   gt->add_option("job", c->job, "Job id")->required();
   gt->add_option("--iteration", c->iteration, "Which iteration (default: the last stored)");

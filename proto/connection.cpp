@@ -1,6 +1,12 @@
 #include "proto/connection.h"
 
+#include <grpcpp/generic/generic_stub.h>
+
+#include <chrono>
+#include <condition_variable>
 #include <cstdlib>
+#include <mutex>
+#include <vector>
 #include <fstream>
 #include <sstream>
 
@@ -30,6 +36,37 @@ Result<std::shared_ptr<grpc::Channel>> OpenChannel(const Connection& connection,
   grpc::SslCredentialsOptions ssl;
   ssl.pem_root_certs = *ca;
   return grpc::CreateCustomChannel(connection.server, grpc::SslCredentials(ssl), args);
+}
+
+Status CheckHealth(const Connection& connection, double timeout_s) {
+  Result<std::shared_ptr<grpc::Channel>> channel = OpenChannel(connection, grpc::ChannelArguments());
+  if (!channel.ok()) return channel.status();
+  grpc::GenericStub generic(*channel);
+  grpc::ClientContext ctx;
+  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(static_cast<int64_t>(timeout_s * 1000)));
+  grpc::Slice empty("");
+  grpc::ByteBuffer request(&empty, 1), response;
+  std::mutex mu;
+  std::condition_variable cv;
+  bool done = false;
+  grpc::Status status;
+  // HealthCheckRequest{} is empty on the wire; the generic stub spares the health proto's generated code.
+  generic.UnaryCall(&ctx, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request, &response, [&](grpc::Status s) {
+    std::lock_guard lock(mu);
+    status = s;
+    done = true;
+    cv.notify_all();
+  });
+  std::unique_lock lock(mu);
+  cv.wait(lock, [&] { return done; });
+  if (!status.ok()) return Status::Error(connection.server + ": health check failed: " + status.error_message());
+  std::vector<grpc::Slice> slices;
+  response.Dump(&slices);
+  std::string bytes;
+  for (const grpc::Slice& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  // HealthCheckResponse{status: SERVING (1)}.
+  if (bytes != std::string("\x08\x01", 2)) return Status::Error(connection.server + ": not serving");
+  return Status::Ok();
 }
 
 void Authorize(const Connection& connection, grpc::ClientContext* context) {

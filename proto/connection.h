@@ -31,6 +31,10 @@ Result<std::shared_ptr<grpc::Channel>> OpenChannel(const Connection& connection,
 // Adds the token (if any) to a call's metadata.
 void Authorize(const Connection& connection, grpc::ClientContext* context);
 
+// Standard gRPC health checking of the whole server (grpc.health.v1.Health/Check, empty service name):
+// OK when it answers SERVING within timeout_s; the error says what came instead.
+Status CheckHealth(const Connection& connection, double timeout_s);
+
 // The contents of a file (certificates, keys); an error names the file.
 Result<std::string> ReadPemFile(const std::string& path, const std::string& what);
 

@@ -24,6 +24,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--drain-s", o.drain_timeout_s, "On SIGTERM, seconds to wait for workers to checkpoint")->capture_default_str();
   app.add_flag("--quiet", o.quiet, "No log lines");
+  app.add_option("--internal-listen", o.internal_address,
+                 "Also a plaintext gRPC port on loopback (host:port), for health probes and local workers of a TLS server");
   kgd::server::HttpOptions http{.address = "", .web_dir = KGD_WEB_DIR};
   double max_upload_mb = 64;
   app.add_option("--http", http.address, "host:port of the web page and the HTTP/JSON API (default: none; port 0: any free port)");

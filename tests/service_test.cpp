@@ -17,6 +17,7 @@
 
 #include "kgd/v1/kgd.grpc.pb.h"
 #include "store/design_file.h"
+#include "proto/connection.h"
 #include "tests/child_process.h"
 #include "tests/kgd_cli.h"
 
@@ -468,33 +469,8 @@ TEST(Service, BadRequestsGetClearErrorsAndLeaveRunningJobsAlone) {
   EXPECT_EQ(st.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << st.error_message();
 
   // Standard health checking (grpc.health.v1.Health/Check with an empty request: the whole server).
-  {
-    grpc::GenericStub generic(grpc::CreateChannel(service.address(), grpc::InsecureChannelCredentials()));
-    grpc::ClientContext ctx;
-    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-    grpc::ByteBuffer request, response;
-    grpc::Slice empty("");
-    request = grpc::ByteBuffer(&empty, 1);
-    std::mutex mu;
-    std::condition_variable cv;
-    bool done = false;
-    grpc::Status health;
-    grpc::StubOptions options;
-    generic.UnaryCall(&ctx, "/grpc.health.v1.Health/Check", options, &request, &response, [&](grpc::Status s) {
-      std::lock_guard lock(mu);
-      health = s;
-      done = true;
-      cv.notify_all();
-    });
-    std::unique_lock lock(mu);
-    cv.wait(lock, [&] { return done; });
-    ASSERT_TRUE(health.ok()) << health.error_message();
-    std::vector<grpc::Slice> slices;
-    response.Dump(&slices);
-    std::string bytes;
-    for (const grpc::Slice& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
-    EXPECT_EQ(bytes, std::string("\x08\x01", 2)) << "status SERVING";
-  }
+  const Status health = CheckHealth({.server = service.address()}, 10);
+  EXPECT_TRUE(health.ok()) << health.message();
 
   // A scene naming a file the bundle lacks is refused at once, naming the key and the file.
   spec = Sleeve(10);
