@@ -3,7 +3,7 @@ BUILD ?= build
 JOBS ?= 2
 CMAKE_FLAGS ?=
 
-.PHONY: setup build demo test acceptance test-sanitize bench study study-makehuman clean
+.PHONY: setup build demo test acceptance test-sanitize bench study study-makehuman fuzz clean
 
 setup:
 	bash scripts/setup.sh
@@ -32,6 +32,12 @@ acceptance: build
 # The same suite built with AddressSanitizer and UndefinedBehaviorSanitizer.
 test-sanitize:
 	$(MAKE) test BUILD=build-sanitize CMAKE_FLAGS="-DKGD_SANITIZE=ON -DKGD_BUILD_BENCHMARKS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo"
+
+# The mutation harness over kgd's inputs (scene files, job specs and records, design files, the HTTP
+# door): FUZZ_CASES per target, every case checked for crash, hang or internal error.
+FUZZ_CASES ?= 2000
+fuzz: build
+	$(BUILD)/tests/kgd_fuzz --source . --kgd $(BUILD)/client/kgd --server $(BUILD)/server/kgd-server --cases $(FUZZ_CASES)
 
 bench: build
 	bash bench/run.sh $(BUILD)

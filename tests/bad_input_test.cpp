@@ -92,6 +92,8 @@ TEST_F(BadInput, UnknownSceneKeys) {
 
 TEST_F(BadInput, MalformedJsonAndMissingFiles) {
   ExpectError(R"({"garment": {"rest": "good.obj"})", "scene.json: not valid JSON");
+  // A number beyond double (found by `make fuzz`): an error, not an abort.
+  ExpectError(R"({"garment": {"rest": "good.obj"}, "budget": 0.1e30801})", "scene.json: not valid JSON: [json.exception.out_of_range.406] number overflow");
   ExpectError(R"({"garment": {"rest": "nowhere.obj"}})", "nowhere.obj: cannot open file");
   ExpectError(R"({"garment": {"rest": "good.obj"}, "effects": {"contact": "unilateral"}})",
               "body.mesh: missing, but effects.contact is 'unilateral'");

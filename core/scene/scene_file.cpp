@@ -389,6 +389,8 @@ Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* f
     doc = json::parse(in);
   } catch (const json::parse_error& e) {
     return Status::Error(path + ": not valid JSON at byte " + std::to_string(e.byte) + ": " + e.what());
+  } catch (const json::exception& e) {  // out_of_range: a number beyond double, e.g. 1e400
+    return Status::Error(path + ": not valid JSON: " + e.what());
   }
   const Reader r(path, fs::path(path).parent_path(), files_read);
   SceneSpec s;
