@@ -398,7 +398,7 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
   });
 
   struct ExportFlags {
-    std::string file, out, formats = "svg,dxf";
+    std::string file, out, formats = "svg,dxf,png";
     std::vector<std::string> body;
     std::string server = DefaultServer();
     int iteration = -1;
@@ -417,7 +417,7 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
   xp->add_option("--seam-allowance-mm", ex->seam_allowance_mm, "Seam allowance around every pattern piece")->check(CLI::NonNegativeNumber)->capture_default_str();
   xp->add_option("--sheet-width-mm", ex->sheet_width_mm, "Width of the vinyl roll the patches are nested on")->check(CLI::PositiveNumber)->capture_default_str();
   xp->add_flag("--no-mirror", ex->no_mirror, "Do not mirror the patches (mirrored is right for heat-transfer vinyl cut from the back)");
-  xp->add_option("--formats", ex->formats, "Comma-separated: svg, dxf")->capture_default_str();
+  xp->add_option("--formats", ex->formats, "Comma-separated: svg, dxf, png (a preview)")->capture_default_str();
   xp->add_flag("--json", ex->json, "Print the report as JSON");
   xp->callback([ex, exit_code] {
     ExportOptions o;

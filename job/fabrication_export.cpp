@@ -1,5 +1,7 @@
 #include "job/fabrication_export.h"
 
+#include "core/fabrication/sheet_png.h"
+
 #include <unistd.h>
 
 #include <chrono>
@@ -18,10 +20,10 @@ namespace fs = std::filesystem;
 namespace {
 
 Status CheckOptions(const ExportOptions& o) {
-  const std::set<std::string> known = {"svg", "dxf"};
-  if (o.formats.empty()) return Status::Error("export: no format asked for (svg, dxf)");
+  const std::set<std::string> known = {"svg", "dxf", "png"};
+  if (o.formats.empty()) return Status::Error("export: no format asked for (svg, dxf, png)");
   for (const std::string& f : o.formats)
-    if (!known.count(f)) return Status::Error("export: unknown format '" + f + "' (svg, dxf)");
+    if (!known.count(f)) return Status::Error("export: unknown format '" + f + "' (svg, dxf, png)");
   if (!(o.cleaning.min_feature_m >= 0) || !(o.sheet.seam_allowance_mm >= 0) || !(o.sheet.sheet_width_mm > 0) || !(o.sheet.gap_mm >= 0))
     return Status::Error("export: minimum feature, seam allowance and gap must be >= 0 and the sheet width > 0");
   return Status::Ok();
@@ -113,10 +115,16 @@ Status CutFiles(const TriMesh& garment, const Eigen::VectorXd& strain, const std
   const Sheet pieces = PatternSheet(r->pattern, r->patches, so);
   Result<Sheet> patches = PatchSheet(r->patches, so, &r->sheet_usage);
   if (!patches.ok()) return patches.status().WithContext("export: ");
-  for (const std::string& f : o.formats) {
-    files->push_back({"pattern." + f, f == "svg" ? SvgText(pieces) : DxfText(pieces)});
-    files->push_back({"patches." + f, f == "svg" ? SvgText(*patches) : DxfText(*patches)});
-  }
+  for (const std::string& f : o.formats)
+    for (const auto& [name, sheet] : {std::pair<std::string, const Sheet*>{"pattern", &pieces}, {"patches", &*patches}}) {
+      if (f != "png") {
+        files->push_back({name + "." + f, f == "svg" ? SvgText(*sheet) : DxfText(*sheet)});
+        continue;
+      }
+      Result<std::string> png = SheetPng(*sheet);
+      if (!png.ok()) return png.status().WithContext("export: " + name + ": ");
+      files->push_back({name + ".png", std::move(png).value()});
+    }
   return Status::Ok();
 }
 

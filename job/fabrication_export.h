@@ -20,7 +20,7 @@ struct ExportOptions {
   int iteration = -1;                 // -1: the last iteration within the budget (else the last)
   CleaningOptions cleaning;
   SheetOptions sheet;
-  std::vector<std::string> formats = {"svg", "dxf"};
+  std::vector<std::string> formats = {"svg", "dxf", "png"};
 };
 
 struct ExportReport {
@@ -39,7 +39,7 @@ struct ExportReport {
 };
 
 // Exports iteration `options.iteration` of `design_file` into `out_dir` (created if missing):
-// pattern.svg / pattern.dxf (pieces), patches.svg / patches.dxf (the vinyl sheet) per `formats`, and
+// pattern.svg / .dxf / .png (pieces), patches.svg / .dxf / .png (the vinyl sheet; PNG: previews) per `formats`, and
 // report.json. Every file is written under a temporary name and renamed only when all are written: a
 // failed export leaves no file behind. Errors name the file, the iteration or the format.
 Result<ExportReport> ExportDesign(const std::string& design_file, const std::string& out_dir, const ExportOptions& options);

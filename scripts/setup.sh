@@ -19,6 +19,7 @@ PACKAGES=(
   libbenchmark-dev         # benchmarks in bench/
   libcpp-httplib-dev       # the HTTP door of the service (JSON API, Server-Sent Events, the web page)
   libcgal-dev              # pattern pieces: least-squares conformal maps (Surface_mesh_parameterization)
+  libpng-dev               # the cut sheets' PNG previews
   prometheus-cpp-dev       # the service's figures at /metrics (Prometheus text format)
   openssl                  # deploy/make-secrets.sh; the tests' throwaway certificate authority
   python3 python3-yaml     # tests/deploy/deploy_check.py reads the compose file and the manifests

@@ -400,7 +400,7 @@ void HttpGateway::Impl::Routes() {
   });
 
   // Cut files (docs/FABRICATION.md) of an iteration, made on request by geometry alone.
-  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/cut/(pattern\.svg|pattern\.dxf|patches\.svg|patches\.dxf|report\.json))",
+  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/cut/(pattern\.svg|pattern\.dxf|pattern\.png|patches\.svg|patches\.dxf|patches\.png|report\.json))",
            [this](const httplib::Request& req, httplib::Response& res) {
              int64_t id = 0;
              if (!JobId(req, res, &id)) return;
@@ -428,7 +428,10 @@ void HttpGateway::Impl::Routes() {
              const std::string name = req.matches[3];
              const auto it = out.files().find(name);
              if (it == out.files().end()) return SetError(res, 500, ServiceCode::kInternal, "the export made no " + name);
-             const std::string type = name.ends_with(".svg") ? "image/svg+xml" : name.ends_with(".json") ? "application/json" : "application/dxf";
+             const std::string type = name.ends_with(".svg")    ? "image/svg+xml"
+                                      : name.ends_with(".png")  ? "image/png"
+                                      : name.ends_with(".json") ? "application/json"
+                                                                : "application/dxf";
              res.set_header("Content-Disposition", "attachment; filename=\"job-" + std::to_string(id) + "-" + name + "\"");
              res.set_content(it->second, type.c_str());
            });

@@ -28,6 +28,8 @@
 //   GET  /v1/jobs/{id}/garment/rest.f32                  V x 3 float32, the rest shape (m)
 //   GET  /v1/jobs/{id}/body/vertices.f32, faces.u32      the body in the deformed pose (404: none)
 //   GET  /v1/jobs/{id}/design-file                       the job's HDF5 design file, once it has ended
+//   GET  /v1/jobs/{id}/iterations/{n}/cut/{pattern,patches}.{svg,dxf,png}, report.json   cut files (docs/FABRICATION.md;
+//        ?minFeatureMm=&seamAllowanceMm=&sheetWidthMm=&mirror=false), made by geometry alone
 //   GET  /                                               the web page (static files of web_dir)
 //
 // The handlers only translate; they never simulate.

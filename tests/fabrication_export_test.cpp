@@ -2,6 +2,7 @@
 // a flat sample exactly, a sleeve design with its patches nested, mirrored and placed, and bad input
 // refused with no file left behind.
 #include <gtest/gtest.h>
+#include <png.h>
 
 #include <filesystem>
 #include <fstream>
@@ -105,7 +106,8 @@ TEST(Export, TheFlatSampleWithTheLineGivesA40By100MillimetreBandExactly) {
   const fs::path dir = TempDir("line");
   const auto run = Kgd("export pull_test_line --out " + (dir / "cut").string());
   ASSERT_EQ(run.exit_code, 0) << run.output;
-  for (const char* f : {"pattern.svg", "pattern.dxf", "patches.svg", "patches.dxf", "report.json"}) EXPECT_TRUE(fs::exists(dir / "cut" / f)) << f;
+  for (const char* f : {"pattern.svg", "pattern.dxf", "pattern.png", "patches.svg", "patches.dxf", "patches.png", "report.json"})
+    EXPECT_TRUE(fs::exists(dir / "cut" / f)) << f;
   const std::string svg = Read(dir / "cut/patches.svg");
   EXPECT_NE(svg.find("width=\"305mm\""), std::string::npos);
   EXPECT_NE(svg.find("viewBox=\"0 0 305 "), std::string::npos);
@@ -121,6 +123,25 @@ TEST(Export, TheFlatSampleWithTheLineGivesA40By100MillimetreBandExactly) {
   const auto [dw, dh] = Extent(dxf.closed.at("1")[0]);
   EXPECT_NEAR(std::min(dw, dh), 40, 0.01);
   EXPECT_NEAR(std::max(dw, dh), 100, 0.01);
+  // The PNG preview at 4 px/mm: 305 mm wide; the red cut line's extent is the band's, to a pixel.
+  png_image png{};
+  png.version = PNG_IMAGE_VERSION;
+  const std::string png_bytes = Read(dir / "cut/patches.png");
+  ASSERT_TRUE(png_image_begin_read_from_memory(&png, png_bytes.data(), png_bytes.size())) << png.message;
+  png.format = PNG_FORMAT_RGB;
+  std::vector<uint8_t> pixels(PNG_IMAGE_SIZE(png));
+  ASSERT_TRUE(png_image_finish_read(&png, nullptr, pixels.data(), 0, nullptr)) << png.message;
+  EXPECT_EQ(png.width, 1220u);
+  int x0 = 1 << 30, x1 = -1, y0 = 1 << 30, y1 = -1;
+  for (int y = 0; y < static_cast<int>(png.height); ++y)
+    for (int x = 0; x < static_cast<int>(png.width); ++x) {
+      const uint8_t* p = &pixels[3 * (static_cast<size_t>(y) * png.width + x)];
+      if (p[0] == 255 && p[1] == 0 && p[2] == 0) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+    }
+  ASSERT_GE(x1, 0) << "no cut line drawn";
+  const double px_w = (x1 - x0) / 4.0, px_h = (y1 - y0) / 4.0;
+  EXPECT_NEAR(std::min(px_w, px_h), 40, 0.5);
+  EXPECT_NEAR(std::max(px_w, px_h), 100, 0.5);
   const nlohmann::json report = nlohmann::json::parse(Read(dir / "cut/report.json"));
   ASSERT_EQ(report["pieces"].size(), 1u);
   EXPECT_EQ(report["pieces"][0]["area_distortion_max"], 0.0);

@@ -304,6 +304,10 @@ TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
   ASSERT_TRUE(cut && cut->status == 200) << (cut ? cut->body : "no response");
   EXPECT_EQ(cut->get_header_value("Content-Type"), "image/svg+xml");
   EXPECT_NE(cut->body.find("width=\"305mm\""), std::string::npos);
+  auto cut_png = cli.Get("/v1/jobs/" + id + "/iterations/" + n + "/cut/patches.png");
+  ASSERT_TRUE(cut_png && cut_png->status == 200) << (cut_png ? cut_png->body : "no response");
+  EXPECT_EQ(cut_png->get_header_value("Content-Type"), "image/png");
+  EXPECT_EQ(cut_png->body.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
   auto cut_report = cli.Get("/v1/jobs/" + id + "/iterations/" + n + "/cut/report.json?sheetWidthMm=500&mirror=false");
   ASSERT_TRUE(cut_report && cut_report->status == 200) << (cut_report ? cut_report->body : "no response");
   EXPECT_NE(cut_report->body.find("\"not simulated\""), std::string::npos) << "the server never simulates";

@@ -331,7 +331,7 @@ function renderDownloads() {
   // Cut files for fabrication (made on request: a second or two).
   const cut = document.createElement('span');
   cut.textContent = 'Cut files: ';
-  for (const name of ['pattern.svg', 'patches.svg', 'pattern.dxf', 'patches.dxf', 'report.json']) {
+  for (const name of ['pattern.svg', 'patches.svg', 'pattern.dxf', 'patches.dxf', 'pattern.png', 'patches.png', 'report.json']) {
     const a = document.createElement('a');
     a.href = `/v1/jobs/${id}/iterations/${state.shown}/cut/${name}`;
     a.download = `job-${id}-iteration-${state.shown}-${name}`;

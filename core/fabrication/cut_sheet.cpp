@@ -230,6 +230,13 @@ Result<Sheet> PatchSheet(const std::vector<Patch>& patches, const SheetOptions& 
   return sheet;
 }
 
+uint32_t LayerColour(const std::string& layer) {
+  if (layer == "1" || layer == "4") return 0xff0000;
+  if (layer == "8") return 0x0050ff;
+  if (layer == "14") return 0x808080;
+  return 0x000000;
+}
+
 std::string SvgText(const Sheet& s) {
   // A margin on top for the calibration square.
   const double w = s.width_mm, h = s.height_mm + 20;
@@ -237,13 +244,18 @@ std::string SvgText(const Sheet& s) {
   o << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
     << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << Number(w) << "mm\" height=\"" << Number(h) << "mm\" viewBox=\"0 0 " << Number(w)
     << " " << Number(h) << "\">\n<title>" << Escape(s.title) << "</title>\n";
+  auto hex = [](const std::string& layer) {
+    char buf[8];
+    std::snprintf(buf, sizeof(buf), "#%06x", LayerColour(layer));
+    return std::string(buf);
+  };
   const std::map<std::string, std::pair<std::string, std::string>> style = {
-      {"1", {"cut", "stroke=\"#ff0000\" stroke-width=\"0.01\" fill=\"none\""}},
-      {"4", {"notches", "stroke=\"#ff0000\" stroke-width=\"0.01\" fill=\"none\""}},
-      {"7", {"grain", "stroke=\"#000000\" stroke-width=\"0.3\" fill=\"none\""}},
-      {"8", {"guides", "stroke=\"#0050ff\" stroke-width=\"0.3\" fill=\"none\" stroke-dasharray=\"2 1\""}},
-      {"14", {"sew", "stroke=\"#808080\" stroke-width=\"0.3\" fill=\"none\" stroke-dasharray=\"4 2\""}},
-      {"15", {"labels", "fill=\"#000000\" font-family=\"sans-serif\""}}};
+      {"1", {"cut", "stroke=\"" + hex("1") + "\" stroke-width=\"0.01\" fill=\"none\""}},
+      {"4", {"notches", "stroke=\"" + hex("4") + "\" stroke-width=\"0.01\" fill=\"none\""}},
+      {"7", {"grain", "stroke=\"" + hex("7") + "\" stroke-width=\"0.3\" fill=\"none\""}},
+      {"8", {"guides", "stroke=\"" + hex("8") + "\" stroke-width=\"0.3\" fill=\"none\" stroke-dasharray=\"2 1\""}},
+      {"14", {"sew", "stroke=\"" + hex("14") + "\" stroke-width=\"0.3\" fill=\"none\" stroke-dasharray=\"4 2\""}},
+      {"15", {"labels", "fill=\"" + hex("15") + "\" font-family=\"sans-serif\""}}};
   auto y = [&](double v) { return Number(h - v); };  // y up in the sheet, down in SVG
   for (const auto& [layer, st] : style) {
     bool any = false;

@@ -56,6 +56,10 @@ struct SeamSides {
 };
 std::vector<SeamSides> SeamLengths(const Pattern& pattern);
 
+// The colour (0xRRGGBB) a layer is drawn in, in the SVG and the PNG preview alike: cut and notches red,
+// grain black, guides blue, sew grey, labels and anything else black.
+uint32_t LayerColour(const std::string& layer);
+
 // SVG in true millimetres (width and height in mm, a matching viewBox), hairline red cut strokes, a group
 // per layer, and a 10 mm calibration square.
 std::string SvgText(const Sheet& sheet);

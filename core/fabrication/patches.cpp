@@ -210,14 +210,30 @@ std::vector<Patch> ReinforcementPatches(const Pattern& pattern, const std::vecto
       size_t outer = 0;
       for (size_t k = 1; k < loops.size(); ++k)
         if (std::abs(SignedArea(loops[k])) > std::abs(SignedArea(loops[outer]))) outer = k;
+      // Loops turn like the outer one around more reinforcement (where faces touch at a vertex only,
+      // the outer boundary splits into lobes), the other way around holes. A lobe is a patch of its own.
+      // Loops under the minimum area are slivers of such pinches, too small to cut (as the cleaning
+      // fills holes under it); faired, they can even cross the outline.
+      const bool outer_ccw = SignedArea(loops[outer]) > 0;
+      std::vector<FlatPositions> holes, lobes;
+      for (size_t k = 0; k < loops.size(); ++k) {
+        if (k == outer || loops[k].rows() < 3 || std::abs(SignedArea(loops[k])) < min_area_m2) continue;
+        ((SignedArea(loops[k]) > 0) == outer_ccw ? lobes : holes).push_back(loops[k]);
+      }
+      for (FlatPositions& lobe : lobes) {
+        Patch l;
+        l.piece = static_cast<int>(i);
+        l.outline = SignedArea(lobe) < 0 ? lobe.colwise().reverse().eval() : lobe;
+        l.area_m2 = l.outline_area_m2 = SignedArea(l.outline);
+        a -= l.area_m2;
+        if (l.area_m2 >= min_area_m2) patches.push_back(std::move(l));
+      }
       Patch p;
       p.piece = static_cast<int>(i);
       p.area_m2 = a;
       p.outline = loops[outer];
       if (SignedArea(p.outline) < 0) p.outline = p.outline.colwise().reverse().eval();
-      for (size_t k = 0; k < loops.size(); ++k) {
-        if (k == outer) continue;
-        FlatPositions h = loops[k];
+      for (FlatPositions h : holes) {
         if (SignedArea(h) > 0) h = h.colwise().reverse().eval();
         p.holes.push_back(h);
       }
