@@ -77,7 +77,6 @@ Result<ExportReport> ExportDesign(const std::string& path, const std::string& ou
   Result<DesignFile> file = ReadDesignFile(path, {.arrays = true, .only_iteration = k});
   if (!file.ok()) return file.status();
   const BesoIteration& it = file->iterations[k];
-  const int nf = static_cast<int>(h.garment.faces.rows());
   bool any = false;
   for (uint8_t d : it.design) any |= d != 0;
   if (!any) return Status::Error(path + ": iteration " + std::to_string(k) + " has no reinforced face: nothing to cut");
