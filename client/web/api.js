@@ -19,15 +19,21 @@ export function setToken(value) {
 }
 if (token) setToken(token);
 
+// One question at a time: requests refused together wait for the same answer.
+let asking = null;
 async function request(path, init = {}) {
   const send = () => fetch(path, { ...init, headers: { ...(init.headers || {}), ...(token ? { Authorization: `Bearer ${token}` } : {}) } });
+  const sent = token;
   let res = await send();
   if (res.status === 401) {
-    const value = window.prompt('This kgd server needs your access token:', '');
-    if (value) {
-      setToken(value.trim());
-      res = await send();
+    if (token === sent) {
+      asking ??= new Promise((resolve) => setTimeout(() => resolve(window.prompt('This kgd server needs your access token:', '')), 0)).then((value) => {
+        if (value) setToken(value.trim());
+        asking = null;
+      });
+      await asking;
     }
+    if (token !== sent) res = await send();
   }
   return res;
 }

@@ -184,6 +184,36 @@ try {
   }).map((e) => e.outerHTML.slice(0, 80)));
   check(unlabelled.length === 0, `every control is labelled${unlabelled.length ? ': ' + unlabelled.join(', ') : ''}`);
   check(pageErrors.length === 0, `no script errors${pageErrors.length ? ': ' + pageErrors.join('; ') : ''}`);
+
+  // A server with tokens: the page asks once, then lists and follows the user's jobs.
+  const token = 'page-test-token-0123456789abcdef';
+  fs.writeFileSync(path.join(data, 'tokens.txt'), `${token} carol user\n`);
+  const [grpc2, http2] = [await freePort(), await freePort()];
+  const secured = spawn(kgd, ['serve', '--data', path.join(data, 'secured'), '--listen', `127.0.0.1:${grpc2}`, '--http', `127.0.0.1:${http2}`,
+    '--auth-tokens', path.join(data, 'tokens.txt'), '--quiet'], { stdio: ['ignore', 'pipe', 'inherit'] });
+  let securedOut = '';
+  secured.stdout.on('data', (d) => { securedOut += d; });
+  try {
+    await until('kgd serve with tokens to start', () => securedOut.includes('web page and HTTP API'), 30000);
+    const plain = await fetch(`http://127.0.0.1:${http2}/v1/jobs`);
+    check(plain.status === 401, `without a token the API answers 401 (${plain.status})`);
+    const tokenContext = await browser.newContext({ viewport: { width: 1280, height: 800 } });
+    const tokenPage = await tokenContext.newPage();
+    let asked = 0;
+    tokenPage.on('dialog', (d) => { asked++; d.accept(token); });
+    await tokenPage.goto(`http://127.0.0.1:${http2}/`);
+    await until('the scene list behind a token', () => tokenPage.evaluate(() => document.querySelectorAll('#scene option').length > 0));
+    check(asked === 1, `the page asked for the token once (${asked})`);
+    await tokenPage.selectOption('#scene', 'sleeve_on_limb');
+    await tokenPage.click('#submit-button');
+    const followed = await until('the job to run behind a token',
+      () => tokenPage.evaluate(() => [...window.kgd.state.jobs.values()].some((j) => (j.iterations || 0) > 0))).then(() => true, () => false);
+    check(followed, 'a job submitted and followed live with a token (header for the API, cookie for the event stream)');
+    await tokenContext.close();
+  } finally {
+    secured.kill('SIGTERM');
+    await new Promise((r) => secured.on('exit', r));
+  }
 } catch (e) {
   console.log(`FAIL ${e.message}`);
   failures++;
