@@ -1,6 +1,7 @@
 #include "client/simulate_command.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -29,6 +30,7 @@ struct SimulateOptions {
   int max_iterations = -1;
   bool verbose = false;
   bool frames = false;
+  bool profile = false;
   std::string design;
   std::vector<std::string> body;
 };
@@ -61,6 +63,42 @@ nlohmann::json ResultJson(const SceneSpec& scene, const SimulationResult& r) {
     j["max_phi_m"] = r.max_phi_m;
   }
   return j;
+}
+
+// Where the time went: set-up (scene, model) and the solve's parts, each built term's evaluations.
+struct SetupTimes {
+  double scene_s = 0;  // the scene: bodies, poses, garment (ResolveScene)
+  double model_s = 0;  // the simulator's model and system: body field, terms, pattern, analysis
+};
+
+nlohmann::json ProfileJson(const SetupTimes& setup, const SolveReport& s) {
+  nlohmann::json terms = nlohmann::json::array();
+  for (const GarmentSystem::TermTime& t : s.term_times) terms.push_back({{"name", t.name}, {"seconds", t.seconds}, {"elements", t.elements}});
+  return {{"scene_s", setup.scene_s},
+          {"model_s", setup.model_s},
+          {"solve_s", s.seconds},
+          {"assembly_s", s.assembly_s},
+          {"factorization_s", s.factorization_s},
+          {"linear_solve_s", s.solve_s},
+          {"line_search_s", s.line_search_s},
+          {"body_field_query_s", s.body_field_query_s},
+          {"terms", terms}};
+}
+
+void PrintProfile(const SetupTimes& setup, const SolveReport& s) {
+  std::string built;
+  for (const GarmentSystem::TermTime& t : s.term_times) built += (built.empty() ? "" : ", ") + std::string(t.name);
+  std::printf("profile (s)           scene %.3f, model %.3f, solve %.3f\n", setup.scene_s, setup.model_s, s.seconds);
+  std::printf("  solve               assembly %.3f, factorization %.3f, linear solves %.3f, line search %.3f\n", s.assembly_s,
+              s.factorization_s, s.solve_s, s.line_search_s);
+  std::printf("  terms built         %s\n", built.c_str());
+  for (const GarmentSystem::TermTime& t : s.term_times) {
+    std::string name = t.name;
+    std::replace(name.begin(), name.end(), '_', ' ');
+    std::printf("  %-19s %.4f  (%lld element evaluations%s)\n", name.c_str(), t.seconds, t.elements,
+                name == "contact" ? ", with its body-field queries" : "");
+  }
+  if (s.body_field_query_s > 0) std::printf("  body-field queries  %.4f  (the line search's contact projection)\n", s.body_field_query_s);
 }
 
 void PrintHuman(const SceneSpec& scene, const SimulationResult& r) {
@@ -148,7 +186,10 @@ int RunFrames(const SimulateOptions& o, const SceneSpec& scene) {
 }
 
 int RunSimulate(const SimulateOptions& o) {
+  const auto t_scene = std::chrono::steady_clock::now();
   Result<SceneSpec> scene = ResolveScene(o.scene, o.body);
+  SetupTimes setup;
+  setup.scene_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_scene).count();
   if (!scene.ok()) {
     std::cerr << "kgd simulate: " << scene.message() << "\n";
     return 2;
@@ -164,13 +205,21 @@ int RunSimulate(const SimulateOptions& o) {
   if (o.design == "all_cloth") scene->design.assign(scene->design.size(), kCloth);
   if (o.design == "all_reinforced") scene->design.assign(scene->design.size(), kReinforced);
   if (o.frames) return RunFrames(o, *scene);
+  const auto t_simulate = std::chrono::steady_clock::now();
   Result<SimulationResult> r = SimulateScene(*scene);
   if (!r.ok()) {
     std::cerr << "kgd simulate: " << r.message() << "\n";
     return 2;
   }
-  if (o.json) std::cout << ResultJson(*scene, *r).dump() << std::endl;
-  else PrintHuman(*scene, *r);
+  setup.model_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_simulate).count() - r->solve.seconds;
+  if (o.json) {
+    nlohmann::json j = ResultJson(*scene, *r);
+    if (o.profile) j["profile"] = ProfileJson(setup, r->solve);
+    std::cout << j.dump() << std::endl;
+  } else {
+    PrintHuman(*scene, *r);
+    if (o.profile) PrintProfile(setup, r->solve);
+  }
   if (!o.out.empty()) {
     const Status s = WriteResultPly(o.out, *scene, *r);
     if (!s.ok()) {
@@ -190,6 +239,9 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
   sim->add_option("scene", opts->scene, "Scene file (JSON) or the name of a built-in scene (see `kgd scenes`)")->required();
   sim->add_flag("--json", opts->json, "Print the result as one JSON object (SI units)");
   sim->add_flag("-v,--verbose", opts->verbose, "Print every solver iteration to stderr");
+  sim->add_flag("--profile", opts->profile,
+                "Say which energy terms the scene built and where the time went: set-up, assembly, factorization, "
+                "solves, line search, each term's evaluations, body-field queries");
   sim->add_flag("--frames", opts->frames,
                 "Simulate every frame of the scene's motion in order (each warm-started from the previous); "
                 "with --out, one PLY per frame (NAME_frame_01.ply, ...)");

@@ -57,6 +57,19 @@ CREATE TABLE iterations (
 ALTER TABLE jobs ADD COLUMN owner TEXT NOT NULL DEFAULT '';
 CREATE INDEX jobs_by_owner ON jobs(owner, id);
 )sql",
+    R"sql(
+ALTER TABLE iterations ADD COLUMN assembly_s REAL NOT NULL DEFAULT 0;
+ALTER TABLE iterations ADD COLUMN factorization_s REAL NOT NULL DEFAULT 0;
+ALTER TABLE iterations ADD COLUMN linear_solve_s REAL NOT NULL DEFAULT 0;
+ALTER TABLE iterations ADD COLUMN line_search_s REAL NOT NULL DEFAULT 0;
+ALTER TABLE iterations ADD COLUMN body_field_query_s REAL NOT NULL DEFAULT 0;
+ALTER TABLE iterations ADD COLUMN membrane_s REAL NOT NULL DEFAULT 0;
+ALTER TABLE iterations ADD COLUMN fold_barrier_s REAL NOT NULL DEFAULT 0;
+ALTER TABLE iterations ADD COLUMN attachment_s REAL NOT NULL DEFAULT 0;
+ALTER TABLE iterations ADD COLUMN contact_s REAL NOT NULL DEFAULT 0;
+ALTER TABLE iterations ADD COLUMN friction_s REAL NOT NULL DEFAULT 0;
+ALTER TABLE iterations ADD COLUMN bending_s REAL NOT NULL DEFAULT 0;
+)sql",
 };
 constexpr int kNumMigrations = sizeof(kMigrations) / sizeof(kMigrations[0]);
 static_assert(kNumMigrations == kSchemaVersion);

@@ -25,7 +25,7 @@
 
 namespace kgd::server {
 
-inline constexpr int kSchemaVersion = 2;
+inline constexpr int kSchemaVersion = 3;
 
 struct Lease {
   std::string lease_id;

@@ -50,6 +50,42 @@ TEST(JobStore, MigratesAFreshDatabaseAndRefusesANewerOne) {
   EXPECT_FALSE(garbage.ok());
 }
 
+// A version-2 database (iterations without the solve profile) migrates: its rows read the profile as 0,
+// and new rows keep theirs.
+TEST(JobStore, AVersion2DatabaseGainsTheSolveProfileColumns) {
+  const std::string path = FreshPath("v2");
+  int64_t job = 0;
+  std::string lease;
+  {
+    auto store = std::move(JobStore::Open(path)).value();
+    job = *store->CreateJob(Spec(), 3, 100.0);
+    lease = (**store->LeaseNext("w1", 101.0, 1000.0)).lease_id;
+    ASSERT_TRUE(store->AppendIteration(job, lease, Metrics(0), std::string(3, '\1')).ok());
+  }
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    for (const char* c : {"assembly_s", "factorization_s", "linear_solve_s", "line_search_s", "body_field_query_s", "membrane_s",
+                          "fold_barrier_s", "attachment_s", "contact_s", "friction_s", "bending_s"})
+      ASSERT_EQ(sqlite3_exec(db, (std::string("ALTER TABLE iterations DROP COLUMN ") + c).c_str(), nullptr, nullptr, nullptr), SQLITE_OK) << c;
+    ASSERT_EQ(sqlite3_exec(db, "PRAGMA user_version=2", nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(db);
+  }
+  auto store = std::move(JobStore::Open(path)).value();
+  Result<std::optional<v1::IterationRecord>> old = store->Iteration(job, 0);
+  ASSERT_TRUE(old.ok() && *old) << old.message();
+  EXPECT_EQ((*old)->metrics().membrane_s(), 0.0);
+  EXPECT_EQ((*old)->metrics().energy_j(), Metrics(0).energy_j());
+  v1::IterationMetrics m = Metrics(1);
+  m.set_membrane_s(0.25);
+  m.set_factorization_s(0.5);
+  ASSERT_TRUE(store->AppendIteration(job, lease, m, std::string(3, '\1')).ok());
+  Result<std::optional<v1::IterationRecord>> now = store->Iteration(job, 1);
+  ASSERT_TRUE(now.ok() && *now);
+  EXPECT_EQ((*now)->metrics().membrane_s(), 0.25);
+  EXPECT_EQ((*now)->metrics().factorization_s(), 0.5);
+}
+
 TEST(JobStore, LeasesRenewsAndStoresIterationsInOrderForTheHolderOnly) {
   auto store = std::move(JobStore::Open(FreshPath("lease"))).value();
   const int64_t a = *store->CreateJob(Spec(), 3, 100.0), b = *store->CreateJob(Spec(), 3, 101.0);

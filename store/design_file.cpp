@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <string_view>
 #include <type_traits>
 
 #include <nlohmann/json.hpp>
@@ -21,11 +22,14 @@ constexpr const char* kFormat = "kgd design history";
 constexpr int kFormatVersion = 1;
 
 // Metric datasets, one per entry of KGD_BESO_METRICS: name, and whether they hold integers.
+// A metric is optional when files written before it existed lack its dataset (the solve profile): it
+// reads as 0 there, and appending to such a file adds the dataset.
 struct MetricSpec {
   const char* name;
   bool integer;
   double BesoIteration::*real;
   int BesoIteration::*whole;
+  bool optional = false;
 };
 template <typename T>
 MetricSpec Metric(const char* name, T BesoIteration::*member) {
@@ -33,11 +37,23 @@ MetricSpec Metric(const char* name, T BesoIteration::*member) {
   else return {name, false, member, nullptr};
 }
 const std::vector<MetricSpec>& Metrics() {
+  static const std::vector<MetricSpec> m = [] {
 #define KGD_METRIC_SPEC(type, name, what) Metric(#name, &BesoIteration::name),
-  static const std::vector<MetricSpec> m = {KGD_BESO_METRICS(KGD_METRIC_SPEC)};
+    std::vector<MetricSpec> all = {KGD_BESO_METRICS(KGD_METRIC_SPEC)};
+    const std::vector<MetricSpec> profile = {KGD_BESO_PROFILE_METRICS(KGD_METRIC_SPEC)};
 #undef KGD_METRIC_SPEC
+    for (MetricSpec& s : all)
+      for (const MetricSpec& p : profile) s.optional = s.optional || std::string_view(s.name) == p.name;
+    return all;
+  }();
   return m;
 }
+bool IsOptionalMetric(const std::string& name) {
+  for (const MetricSpec& s : Metrics())
+    if (s.optional && name == s.name) return true;
+  return false;
+}
+bool HasDataset(hid_t group, const char* name) { return H5Lexists(group, name, H5P_DEFAULT) > 0; }
 
 Status Fail(const std::string& path, const std::string& what) { return Status::Error(path + ": " + what); }
 
@@ -243,6 +259,7 @@ Result<std::unique_ptr<DesignFileReader>> OpenDesignFileReader(const std::string
   const hsize_t nf = h.garment.faces.rows(), nv = h.garment.vertices.rows();
   r.marker_rows = r.rows = ns.size() == 1 ? ns[0] : 0;
   for (const std::string& name : DesignFileMetricNames()) {
+    if (IsOptionalMetric(name) && !HasDataset(r.its, name.c_str())) continue;
     const std::vector<hsize_t> s = Shape(r.its, name.c_str());
     if (s.size() != 1 && salvage) {  // unreadable (a torn object header): no iteration is whole
       r.rows = 0;
@@ -280,9 +297,11 @@ Status ReadIteration(const DesignFileReader& r, hsize_t i, bool arrays, BesoIter
     return Fail(path, "/iterations/status row " + std::to_string(i) + " holds " + std::to_string(status) +
                           ", not a solver status (0-" + std::to_string(last) + ")");
   it->status = static_cast<SolveStatus>(status);
-  for (const MetricSpec& s : Metrics())
+  for (const MetricSpec& s : Metrics()) {
+    if (s.optional && !HasDataset(its, s.name)) continue;  // a file from before the metric: it stays 0
     ok = ok && (s.integer ? ReadRow(its, s.name, H5T_NATIVE_INT, i, &(it->*(s.whole)))
                           : ReadRow(its, s.name, H5T_NATIVE_DOUBLE, i, &(it->*(s.real))));
+  }
   if (!ok) return Fail(path, "cannot read the metrics of iteration row " + std::to_string(i));
   if (it->iteration != static_cast<int>(i))
     return Fail(path, "/iterations/iteration row " + std::to_string(i) + " holds " + std::to_string(it->iteration));
@@ -425,6 +444,15 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
   m.iterations = Id(H5Gopen2(m.file, "iterations", H5P_DEFAULT), H5Gclose);
   // The commit marker first, so a crash in between leaves a file that reads as `keep` iterations.
   bool ok = m.iterations.ok() && Truncate(m.iterations, "iteration", keep);
+  // Metrics newer than the file: their datasets, 0 for the kept iterations.
+  for (const MetricSpec& s : Metrics()) {
+    if (!ok || !s.optional || HasDataset(m.iterations, s.name)) continue;
+    ok = CreateGrowing(m.iterations, s.name, s.integer ? H5T_STD_I32LE : H5T_IEEE_F64LE, {});
+    const double zero = 0;
+    const int zero_int = 0;
+    for (int row = 0; ok && row < keep; ++row)
+      ok = WriteRow(m.iterations, s.name, s.integer ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE, row, s.integer ? static_cast<const void*>(&zero_int) : &zero);
+  }
   for (const std::string& name : DesignFileMetricNames()) ok = ok && Truncate(m.iterations, name.c_str(), keep);
   for (const char* name : kArrayNames) ok = ok && Truncate(m.iterations, name, keep);
   if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot truncate the design file");

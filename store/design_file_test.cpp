@@ -56,6 +56,9 @@ void ExpectSame(const BesoIteration& a, const BesoIteration& b) {
   EXPECT_EQ(a.solver_iterations, b.solver_iterations);
   EXPECT_EQ(a.status, b.status);
   EXPECT_EQ(a.total_s, b.total_s);
+  EXPECT_EQ(a.assembly_s, b.assembly_s);
+  EXPECT_EQ(a.membrane_s, b.membrane_s);
+  EXPECT_EQ(a.contact_s, b.contact_s);
   EXPECT_EQ(a.design, b.design);
   EXPECT_TRUE(a.positions == b.positions);
   EXPECT_TRUE(a.energy_density_Pa == b.energy_density_Pa);
@@ -143,6 +146,45 @@ TEST(DesignFile, ReopenKeepsThePrefixAndResumedRunsMatchUninterruptedOnes) {
     EXPECT_EQ(d->iterations[k].energy_J, f.run[k].energy_J) << "iteration " << k;
   }
   EXPECT_FALSE(DesignFileWriter::Reopen(path, 99).ok());
+  std::filesystem::remove(path);
+}
+
+// A file written before the solve profile existed (no datasets for it) reads the profile as 0, and a
+// resumed run adds the datasets: the old rows read 0, the new ones their values.
+TEST(DesignFile, AFileWithoutTheSolveProfileReadsItAsZeroAndGainsItWhenResumed) {
+  const Fixture f = MakeRun(4);
+  ASSERT_GT(f.run[1].membrane_s, 0.0);
+  const std::string path = TempPath("no_profile.h5");
+  {
+    auto w = DesignFileWriter::Create(path, f.header);
+    ASSERT_TRUE(w.ok());
+    for (size_t k = 0; k < 3; ++k) ASSERT_TRUE((*w)->Append(f.run[k]).ok());
+  }
+  {
+    const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+#define KGD_DROP_PROFILE_METRIC(type, name, what) ASSERT_GE(H5Ldelete(file, "/iterations/" #name, H5P_DEFAULT), 0);
+    KGD_BESO_PROFILE_METRICS(KGD_DROP_PROFILE_METRIC)
+#undef KGD_DROP_PROFILE_METRIC
+    H5Fclose(file);
+  }
+  Result<DesignFile> old = ReadDesignFile(path);
+  ASSERT_TRUE(old.ok()) << old.message();
+  ASSERT_EQ(old->iterations.size(), 3u);
+  EXPECT_EQ(old->iterations[1].membrane_s, 0.0);
+  EXPECT_EQ(old->iterations[1].assembly_s, 0.0);
+  EXPECT_EQ(old->iterations[1].energy_J, f.run[1].energy_J);
+  {
+    auto w = DesignFileWriter::Reopen(path, 3);
+    ASSERT_TRUE(w.ok()) << w.message();
+    ASSERT_TRUE((*w)->Append(f.run[3]).ok());
+  }
+  const Result<DesignFile> d = ReadDesignFile(path);
+  ASSERT_TRUE(d.ok()) << d.message();
+  ASSERT_EQ(d->iterations.size(), 4u);
+  EXPECT_EQ(d->iterations[2].membrane_s, 0.0);
+  EXPECT_EQ(d->iterations[3].membrane_s, f.run[3].membrane_s);
+  EXPECT_EQ(d->iterations[3].factorization_s, f.run[3].factorization_s);
   std::filesystem::remove(path);
 }
 

@@ -168,6 +168,39 @@ std::string RunKgd(const std::string& args, int* exit_code) {
   return out;
 }
 
+// `kgd simulate --profile` names the terms a scene built and where the time went: a flat pull test
+// builds no contact term (and queries no body field), a sleeve on a limb does.
+TEST(BuiltinScenes, SimulateProfileNamesTheTermsBuiltAndTheirTimes) {
+  struct Case {
+    const char* scene;
+    std::vector<std::string> terms;
+  };
+  for (const Case& c : {Case{"pull_test_line", {"membrane", "fold_barrier"}},
+                        Case{"sleeve_on_limb", {"membrane", "fold_barrier", "attachment", "contact"}}}) {
+    SCOPED_TRACE(c.scene);
+    int code = 0;
+    const std::string out = RunKgd(std::string("simulate ") + c.scene + " --profile --json", &code);
+    ASSERT_EQ(code, 0) << out;
+    const nlohmann::json j = nlohmann::json::parse(out);
+    const nlohmann::json& p = j.at("profile");
+    std::vector<std::string> names;
+    double terms_s = 0;
+    for (const nlohmann::json& t : p.at("terms")) {
+      names.push_back(t.at("name"));
+      EXPECT_GT(t.at("seconds").get<double>(), 0.0) << t.dump();
+      EXPECT_GT(t.at("elements").get<long long>(), 0) << t.dump();
+      terms_s += t.at("seconds").get<double>();
+    }
+    EXPECT_EQ(names, c.terms);
+    EXPECT_LE(terms_s, p.at("solve_s").get<double>());
+    EXPECT_GT(p.at("factorization_s").get<double>(), 0.0);
+    EXPECT_GE(p.at("scene_s").get<double>(), 0.0);
+    if (std::string(c.scene) == "pull_test_line") EXPECT_EQ(p.at("body_field_query_s").get<double>(), 0.0);
+    const std::string human = RunKgd(std::string("simulate ") + c.scene + " --profile", &code);
+    EXPECT_NE(human.find("terms built"), std::string::npos) << human;
+  }
+}
+
 // Acceptance 5: `kgd scene export` then `kgd simulate` on the files reproduces the built-in result.
 TEST(BuiltinScenes, ExportThenSimulateReproducesTheBuiltIn) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "kgd_export_knee_extension";

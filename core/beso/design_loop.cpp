@@ -22,6 +22,27 @@ std::vector<double> Objective(const std::vector<BesoIteration>& history) {
 
 }  // namespace
 
+double BesoIteration::*TermTimeMetric(std::string_view term) {
+  static const std::pair<std::string_view, double BesoIteration::*> metrics[] = {
+      {"membrane", &BesoIteration::membrane_s},   {"fold_barrier", &BesoIteration::fold_barrier_s},
+      {"attachment", &BesoIteration::attachment_s}, {"contact", &BesoIteration::contact_s},
+      {"friction", &BesoIteration::friction_s},   {"bending", &BesoIteration::bending_s},
+  };
+  for (const auto& [name, member] : metrics)
+    if (name == term) return member;
+  return nullptr;
+}
+
+void RecordSolveProfile(const SolveReport& report, BesoIteration* it) {
+  it->assembly_s = report.assembly_s;
+  it->factorization_s = report.factorization_s;
+  it->linear_solve_s = report.solve_s;
+  it->line_search_s = report.line_search_s;
+  it->body_field_query_s = report.body_field_query_s;
+  for (const GarmentSystem::TermTime& t : report.term_times)
+    if (double BesoIteration::*m = TermTimeMetric(t.name)) it->*m = t.seconds;
+}
+
 BesoIteration MetricsOnly(BesoIteration it) {
   it.positions.resize(0, 3);
   it.energy_density_Pa.resize(0);
@@ -153,6 +174,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
       b.cold_restart = 1;
     }
     b.simulation_s = Since(t0);
+    RecordSolveProfile(report, &b);
     const SimulationResult r = Summarize(sys, x, reference, report);
     b.iteration = it;
     b.target_area_m2 = target;

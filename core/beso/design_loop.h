@@ -10,6 +10,7 @@
 
 #include <functional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/beso/beso.h"
@@ -36,7 +37,23 @@ namespace kgd {
   X(double, sensitivity_s, "sensitivities (W and the two-material formula)")                                \
   X(double, filter_s, "filter and temporal averaging")                                                      \
   X(double, update_s, "design update (ranking, threshold, admission)")                                      \
-  X(double, total_s, "the whole iteration")
+  X(double, total_s, "the whole iteration")                                                                 \
+  KGD_BESO_PROFILE_METRICS(X)
+
+// Where an iteration's equilibrium solve spent its time (s; Newton's parts, then each energy term's
+// evaluations: 0 for a term the scene does not build). Design files written before these existed read 0.
+#define KGD_BESO_PROFILE_METRICS(X)                                                                          \
+  X(double, assembly_s, "energy, gradient and Hessian assembly of the solve (Newton)")                      \
+  X(double, factorization_s, "Cholesky factorizations of the solve (Newton)")                               \
+  X(double, linear_solve_s, "triangular and conjugate-gradient solves (Newton)")                            \
+  X(double, line_search_s, "line search (energy trials, contact projection)")                               \
+  X(double, body_field_query_s, "body-field queries outside the contact term (the contact projection)")     \
+  X(double, membrane_s, "membrane term evaluations")                                                        \
+  X(double, fold_barrier_s, "fold barrier term evaluations (0: not built)")                                 \
+  X(double, attachment_s, "attachment term evaluations (0: not built)")                                     \
+  X(double, contact_s, "contact term evaluations with their body-field queries (0: not built)")            \
+  X(double, friction_s, "friction term evaluations (0: not built)")                                         \
+  X(double, bending_s, "bending term evaluations (0: not built)")
 
 struct BesoIteration {
   int iteration = 0;  // 0: the fully reinforced design
@@ -51,6 +68,12 @@ struct BesoIteration {
                                        // (the averaged ones that ranked this design; with average_with_raw, the
                                        // filtered ones before averaging); empty at iteration 0
 };
+
+// The metric that holds the evaluation time of the energy term named `term` (the registry's key,
+// energy_terms.h), or null for a name the registry does not have.
+double BesoIteration::*TermTimeMetric(std::string_view term);
+// Puts a solve's time breakdown (Newton's parts, each term's evaluations) into the profile metrics.
+void RecordSolveProfile(const SolveReport& report, BesoIteration* it);
 
 // `it` with its arrays (design, positions, densities, sensitivities) dropped: the metrics alone, which
 // are all the stop rule and summaries read.

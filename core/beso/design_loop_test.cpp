@@ -44,6 +44,35 @@ TEST(DesignLoop, PullTestDesignsMeetTheirTargetsAndConcentrateEnergy) {
   for (size_t k = 0; k < a->size(); ++k) EXPECT_EQ((*a)[k].design, (*b)[k].design) << "iteration " << k;
 }
 
+// Every iteration's record says where its solve spent its time: Newton's parts within the solve, and
+// each term the scene builds (the pull test: membrane and fold barrier, no contact, attachment, friction
+// or bending).
+TEST(DesignLoop, EveryIterationRecordsWhereItsSolveSpentItsTime) {
+  Result<SceneSpec> scene = PullTestScene("all_cloth");
+  ASSERT_TRUE(scene.ok());
+  const Result<std::vector<BesoIteration>> run = RunBeso(*scene, PullTestSettings(4));
+  ASSERT_TRUE(run.ok()) << run.message();
+  for (const TermRegistration& t : EnergyTermRegistry()) EXPECT_NE(TermTimeMetric(t.name), nullptr) << t.name;
+  EXPECT_EQ(TermTimeMetric("no such term"), nullptr);
+  for (const BesoIteration& it : *run) {
+    SCOPED_TRACE("iteration " + std::to_string(it.iteration));
+    EXPECT_GT(it.assembly_s, 0.0);
+    if (it.iteration == 0) {  // later re-solves may take local steps only, with no global factorization
+      EXPECT_GT(it.factorization_s, 0.0);
+      EXPECT_GT(it.linear_solve_s, 0.0);
+    }
+    EXPECT_LE(it.assembly_s + it.factorization_s + it.linear_solve_s + it.line_search_s, it.simulation_s);
+    EXPECT_GT(it.membrane_s, 0.0);
+    EXPECT_GT(it.fold_barrier_s, 0.0);
+    EXPECT_LE(it.membrane_s + it.fold_barrier_s, it.simulation_s);
+    EXPECT_EQ(it.contact_s, 0.0);
+    EXPECT_EQ(it.body_field_query_s, 0.0);
+    EXPECT_EQ(it.attachment_s, 0.0);
+    EXPECT_EQ(it.friction_s, 0.0);
+    EXPECT_EQ(it.bending_s, 0.0);
+  }
+}
+
 // With the authors' relaxation (C0) the pull test's uniaxial tension sits on the gradient jump, and at a
 // tight tolerance Newton ends there `stalled`: the loop takes those states as equilibria (their energy
 // has converged), records the status, and goes on.

@@ -4,15 +4,21 @@
 #include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <sstream>
+
+#include <omp.h>
 
 #include "core/mesh/topology.h"
 #include "core/util/serial_blas.h"
 
 namespace kgd {
 namespace {
+
+using Clock = std::chrono::steady_clock;
+double SecondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 Status CheckMaterial(const Material& m, const std::string& name) {
   std::ostringstream os;
@@ -132,6 +138,10 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
     term_names_.push_back(reg.name);
     terms_.push_back(std::move(term));
   }
+  term_seconds_.assign(terms_.size(), 0.0);
+  term_elements_.assign(terms_.size(), 0);
+  term_sample_stride_ = static_cast<int>(terms_.size()) + 8;
+  term_sample_ns_.assign(static_cast<size_t>(omp_get_max_threads()) * term_sample_stride_, 0.0);
   for (Stencil stencil : {Stencil::kFace, Stencil::kHinge, Stencil::kVertex}) {
     Group g;
     g.stencil = stencil;
@@ -354,7 +364,8 @@ struct GarmentSystem::ElementSum {
   std::array<double, 144> H;
 };
 
-void GarmentSystem::EvaluateElement(const Group& group, int e, const Positions& x, bool want_grad, bool want_hess, ElementSum* out) {
+void GarmentSystem::EvaluateElement(const Group& group, int e, const Positions& x, bool want_grad, bool want_hess, ElementSum* out,
+                                    double* sample_ns) {
   const int n = 3 * group.k, nn = n * n;
   const int* v = &group.vertices[group.k * e];
   out->scatter = false;
@@ -364,7 +375,9 @@ void GarmentSystem::EvaluateElement(const Group& group, int e, const Positions& 
   std::array<double, 144> He;
   for (size_t i = 0; i < group.terms.size(); ++i) out->energy_J[i] = 0;
   for (size_t i = 0; i < group.terms.size(); ++i) {
+    const auto t0 = sample_ns ? Clock::now() : Clock::time_point();
     const ElementEnergy r = terms_[group.terms[i]]->Evaluate(e, v, x, want_grad ? ge.data() : nullptr, want_hess ? He.data() : nullptr);
+    if (sample_ns) sample_ns[group.terms[i]] += std::chrono::duration<double, std::nano>(Clock::now() - t0).count();
     out->energy_J[i] = r.energy_J;
     if (!std::isfinite(r.energy_J)) return;
     if (!r.derivatives) continue;
@@ -374,6 +387,39 @@ void GarmentSystem::EvaluateElement(const Group& group, int e, const Positions& 
       for (int j = 0; j < nn; ++j) out->H[j] += He[j];
   }
   out->scatter = true;
+}
+
+double* GarmentSystem::TermSample(size_t i) {
+  if (i % kTermTimeSample != 0) return nullptr;
+  const size_t thread = static_cast<size_t>(omp_get_thread_num());
+  if ((thread + 1) * term_sample_stride_ > term_sample_ns_.size()) return nullptr;  // more threads than at construction
+  return &term_sample_ns_[thread * term_sample_stride_];
+}
+
+void GarmentSystem::AddGroupTime(const Group& group, double seconds, long long elements) {
+  const size_t threads = term_sample_ns_.size() / term_sample_stride_;
+  double sampled = 0;
+  std::vector<double> per_term(group.terms.size(), 0.0);
+  for (size_t i = 0; i < group.terms.size(); ++i) {
+    for (size_t th = 0; th < threads; ++th) {
+      double& ns = term_sample_ns_[th * term_sample_stride_ + group.terms[i]];
+      per_term[i] += ns;
+      ns = 0;
+    }
+    sampled += per_term[i];
+  }
+  for (size_t i = 0; i < group.terms.size(); ++i) {
+    // No sample (no element evaluated): an even split of what little time the loop took.
+    const double share = sampled > 0 ? per_term[i] / sampled : 1.0 / group.terms.size();
+    term_seconds_[group.terms[i]] += share * seconds;
+    term_elements_[group.terms[i]] += elements;
+  }
+}
+
+std::vector<GarmentSystem::TermTime> GarmentSystem::term_times() const {
+  std::vector<TermTime> out;
+  for (size_t t = 0; t < terms_.size(); ++t) out.push_back({term_names_[t], term_seconds_[t], term_elements_[t]});
+  return out;
 }
 
 void GarmentSystem::StoreElement(const Group& group, int e, const ElementSum& sum, EvaluationRecord* r) const {
@@ -462,16 +508,18 @@ double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Ei
   // Group by group (faces, hinges, vertices), one colour at a time: elements of a colour share no vertex.
   for (const Group& g : groups_) {
     if (g.terms.empty()) continue;
+    const auto t0 = Clock::now();
     for (const std::vector<int>& color : g.colors) {
 #pragma omp parallel for schedule(static)
       for (size_t i = 0; i < color.size(); ++i) {
         const int e = color[i];
         ElementSum sum;
-        EvaluateElement(g, e, x, want_grad, want_hess, &sum);
+        EvaluateElement(g, e, x, want_grad, want_hess, &sum, TermSample(i));
         StoreElement(g, e, sum, &r);
         Scatter(g, e, sum, gradient, values, nullptr, nullptr, 0);
       }
     }
+    AddGroupTime(g, SecondsSince(t0), g.count);
   }
   if (record) {
     r.x = x;
@@ -545,12 +593,14 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
       const Group& g = groups_[gi];
       if (g.terms.empty()) continue;
       const std::vector<int>& elements = changed_elements[gi];
+      const auto t0 = Clock::now();
 #pragma omp parallel for schedule(static)
       for (size_t i = 0; i < elements.size(); ++i) {
         ElementSum sum;
-        EvaluateElement(g, elements[i], x, false, false, &sum);
+        EvaluateElement(g, elements[i], x, false, false, &sum, TermSample(i));
         StoreElement(g, elements[i], sum, &r);
       }
+      AddGroupTime(g, SecondsSince(t0), static_cast<long long>(elements.size()));
     }
   } else {
     // The vertices whose gradient and Hessian entries change: those of changed elements, and moved ones.
@@ -599,16 +649,20 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
       for (int e : changed_elements[gi]) by_color[g.color_of[e]].push_back(e);
       // Vertex terms of every vertex evaluated are stored (unmoved ones give the same values).
       const bool store_all = g.stencil == Stencil::kVertex;
+      const auto t0 = Clock::now();
+      long long evaluated = 0;
       for (const std::vector<int>& color : by_color) {
+        evaluated += static_cast<long long>(color.size());
 #pragma omp parallel for schedule(static)
         for (size_t i = 0; i < color.size(); ++i) {
           const int e = color[i];
           ElementSum sum;
-          EvaluateElement(g, e, x, true, want_hess, &sum);
+          EvaluateElement(g, e, x, true, want_hess, &sum, TermSample(i));
           if (store_all || g.mark[e] == changed) StoreElement(g, e, sum, &r);
           Scatter(g, e, sum, gradient, values, &vertex_mark_, &entry_mark_, changed);
         }
       }
+      AddGroupTime(g, SecondsSince(t0), evaluated);
     }
   }
   if (record) {
@@ -638,12 +692,14 @@ Eigen::VectorXd GarmentSystem::VertexPhi(const Positions& x, Positions* grad) {
   if (grad) grad->setZero(num_vertices(), 3);
   if (!model_.body) return phi;
   if (caches_.empty()) caches_.resize(num_vertices());
+  const auto t0 = Clock::now();
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < num_vertices(); ++v) {
     const FieldSample s = model_.body->Evaluate(x.row(v).transpose(), &caches_[v], grad != nullptr, false);
     if (s.supported) phi[v] = s.phi_m;
     if (s.supported && grad) grad->row(v) = s.grad.transpose();
   }
+  body_field_query_s_ += SecondsSince(t0);
   return phi;
 }
 
@@ -651,6 +707,7 @@ int GarmentSystem::ProjectCrossingsOntoBody(const Eigen::VectorXd& phi_from, con
   if (model_.effects.contact != ContactModel::kUnilateral || !model_.body) return 0;
   if (caches_.empty()) caches_.resize(num_vertices());
   int moved = 0;
+  const auto t0 = Clock::now();
 #pragma omp parallel for schedule(static) reduction(+ : moved)
   for (int v = 0; v < num_vertices(); ++v) {
     if (std::isnan(phi_from[v])) continue;
@@ -681,6 +738,7 @@ int GarmentSystem::ProjectCrossingsOntoBody(const Eigen::VectorXd& phi_from, con
     trial->row(v) = y.transpose();
     ++moved;
   }
+  body_field_query_s_ += SecondsSince(t0);
   return moved;
 }
 

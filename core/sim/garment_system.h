@@ -127,6 +127,20 @@ class GarmentSystem {
   const std::vector<const char*>& term_names() const { return term_names_; }
   int term_index(std::string_view name) const;
 
+  // Evaluation time per built term (evaluation order), summed over every Evaluate and EvaluateFrom since
+  // the system was made: a stencil's loop is timed as a whole and split among the terms summed over it
+  // in proportion to the time each took on a sample of the elements (one in kTermTimeSample), so the
+  // terms add up to the measured loops. The contact term's time includes its body-field queries.
+  struct TermTime {
+    const char* name;
+    double seconds = 0;
+    long long elements = 0;  // element evaluations
+  };
+  static constexpr int kTermTimeSample = 16;
+  std::vector<TermTime> term_times() const;
+  // Time in body-field queries outside the terms (VertexPhi: the line search's contact projection), s.
+  double body_field_query_s() const { return body_field_query_s_; }
+
   // Changes the material of faces (the BESO loop does this between solves); the pattern is unchanged.
   void SetDesign(const std::vector<uint8_t>& design);
 
@@ -227,6 +241,13 @@ class GarmentSystem {
   std::vector<const char*> term_names_;
   std::vector<int> registered_term_;  // per registry entry: its index in terms_, or -1 when off
   ContactTerm* contact_ = nullptr;  // among terms_: its Phi samples go into records
+  // term_times(): per term of terms_, seconds and element evaluations; per thread, the sampled time of
+  // each term (ns) in the loop being timed (rows padded apart so threads do not share cache lines).
+  std::vector<double> term_seconds_;
+  std::vector<long long> term_elements_;
+  std::vector<double> term_sample_ns_;
+  int term_sample_stride_ = 0;
+  double body_field_query_s_ = 0;
   // Where a local Hessian's entries go: for each kept entry (the upper triangle's, free coordinates
   // only), its index in the local matrix's column-major data and in the Hessian's values.
   struct ScatterEntry {
@@ -259,7 +280,13 @@ class GarmentSystem {
   // One element's terms at x and, on request, their summed gradient and Hessian; the same code serves
   // Evaluate and EvaluateFrom so that both sum the same numbers.
   struct ElementSum;
-  void EvaluateElement(const Group& group, int e, const Positions& x, bool want_grad, bool want_hess, ElementSum* out);
+  // With `sample_ns`, adds each term's time (ns) to sample_ns[term index in terms_].
+  void EvaluateElement(const Group& group, int e, const Positions& x, bool want_grad, bool want_hess, ElementSum* out,
+                       double* sample_ns = nullptr);
+  // The sample row of the calling thread for element position i of a loop, or null when i is not sampled.
+  double* TermSample(size_t i);
+  // Splits a timed loop over `group` (seconds, element evaluations) among its terms by the samples.
+  void AddGroupTime(const Group& group, double seconds, long long elements);
   void StoreElement(const Group& group, int e, const ElementSum& sum, EvaluationRecord* r) const;
   void Scatter(const Group& group, int e, const ElementSum& sum, Eigen::VectorXd* gradient, double* values,
                const std::vector<int>* vertex_mark, const std::vector<int>* entry_mark, int changed) const;

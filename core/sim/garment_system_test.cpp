@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <random>
@@ -11,6 +12,7 @@
 #include "core/scene/scene.h"
 #include "core/scene/builtin_scenes.h"
 #include "core/sim/finite_difference_check.h"
+#include "core/sim/simulator.h"
 
 namespace kgd {
 namespace {
@@ -498,6 +500,91 @@ TEST(GarmentSystem, WithoutContactNoBodyFieldIsBuilt) {
   sleeve.effects.contact = ContactModel::kUnilateral;
   ASSERT_TRUE(BuildGarmentModel(sleeve).ok());
   EXPECT_EQ(BodyField::BuildCount(), before + 1);
+}
+
+// Each effect a scene leaves off is neither built nor evaluated: its term is absent from the system and
+// from the solve's time account, and the terms that are built account for their evaluations.
+TEST(GarmentSystem, AnEffectLeftOffIsNeitherBuiltNorEvaluated) {
+  struct Case {
+    const char* term;
+    void (*on)(SceneSpec*);
+    void (*off)(SceneSpec*);
+  };
+  const Case cases[] = {
+      {"attachment", [](SceneSpec* s) { s->effects.attachments = true; }, [](SceneSpec* s) { s->effects.attachments = false; }},
+      {"fold_barrier", [](SceneSpec* s) { s->effects.fold_barrier = true; }, [](SceneSpec* s) { s->effects.fold_barrier = false; }},
+      {"friction", [](SceneSpec* s) { s->effects.friction = 0.4; }, [](SceneSpec* s) { s->effects.friction = 0; }},
+      {"bending", [](SceneSpec* s) { s->effects.bending = true; }, [](SceneSpec* s) { s->effects.bending = false; }},
+      {"contact", [](SceneSpec* s) { s->effects.contact = ContactModel::kUnilateral; },
+       [](SceneSpec* s) {
+         s->effects.contact = ContactModel::kNone;
+         s->effects.friction = 0;  // friction needs contact
+         PinFirstTwoVertices(s, {true, true, true});
+       }},
+  };
+  for (const Case& c : cases) {
+    for (bool on : {false, true}) {
+      SCOPED_TRACE(std::string(c.term) + (on ? " on" : " off"));
+      SceneSpec s = SmallSleeve(ContactModel::kUnilateral);
+      (on ? c.on : c.off)(&s);
+      const long fields_before = BodyField::BuildCount();
+      auto model = BuildGarmentModel(s);
+      ASSERT_TRUE(model.ok()) << model.message();
+      if (std::string_view(c.term) == "contact") EXPECT_EQ(BodyField::BuildCount() - fields_before, on ? 1 : 0);
+      GarmentSystem sys(std::move(model).value(), s.initial);
+      EXPECT_EQ(sys.term_index(c.term) >= 0, on);
+      Simulator sim(&sys);
+      Positions x = s.initial;
+      SolverSettings settings;
+      settings.max_iterations = 5;
+      const SolveReport r = SolveLagged(sim, sys, &x, settings);
+      bool evaluated = false;
+      for (const GarmentSystem::TermTime& t : r.term_times) {
+        EXPECT_GT(t.elements, 0) << t.name;
+        EXPECT_GT(t.seconds, 0.0) << t.name;
+        evaluated = evaluated || std::string_view(t.name) == c.term;
+      }
+      EXPECT_EQ(evaluated, on);
+      EXPECT_EQ(r.term_times.size(), sys.term_names().size());
+      double terms_s = 0;
+      for (const GarmentSystem::TermTime& t : r.term_times) terms_s += t.seconds;
+      EXPECT_LE(terms_s, r.seconds);
+      if (!on && std::string_view(c.term) == "contact") EXPECT_EQ(r.body_field_query_s, 0.0);
+    }
+  }
+  // Clamps: a scene without them keeps every coordinate free.
+  SceneSpec s = SmallSleeve(ContactModel::kUnilateral);
+  auto model = BuildGarmentModel(s);
+  ASSERT_TRUE(model.ok());
+  EXPECT_EQ(GarmentSystem(std::move(model).value(), s.initial).num_free_dofs(), 3 * s.initial.rows());
+  PinFirstTwoVertices(&s, {true, true, true});
+  model = BuildGarmentModel(s);
+  ASSERT_TRUE(model.ok());
+  EXPECT_EQ(GarmentSystem(std::move(model).value(), s.initial).num_free_dofs(), 3 * s.initial.rows() - 6);
+}
+
+// The time account splits each stencil's measured loop among its terms: every evaluation counts each
+// built term's elements once, and the times add up to no more than the evaluations took.
+TEST(GarmentSystem, TermTimesCountEveryElementOfEveryEvaluation) {
+  SceneSpec s = SmallSleeve(ContactModel::kUnilateral);
+  auto model = BuildGarmentModel(s);
+  ASSERT_TRUE(model.ok());
+  GarmentSystem sys(std::move(model).value(), s.initial);
+  Eigen::VectorXd g;
+  Eigen::SparseMatrix<double> H = sys.hessian_pattern();
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int k = 0; k < 3; ++k) sys.Evaluate(s.initial, &g, &H);
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  double sum = 0;
+  for (const GarmentSystem::TermTime& t : sys.term_times()) {
+    const long long per = std::string_view(t.name) == "contact" ? sys.num_vertices() : sys.num_faces();
+    EXPECT_EQ(t.elements, 3 * per) << t.name;
+    EXPECT_GT(t.seconds, 0.0) << t.name;
+    sum += t.seconds;
+  }
+  EXPECT_LE(sum, wall);
+  std::vector<std::string> names(sys.term_names().begin(), sys.term_names().end());
+  EXPECT_EQ(names, (std::vector<std::string>{"membrane", "fold_barrier", "attachment", "contact"}));
 }
 
 TEST(GarmentSystem, ValidateModelNamesTheProblem) {

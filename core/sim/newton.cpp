@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <string_view>
 
 #include "core/sim/simulator.h"
 #include "core/sim/sparse_cholesky.h"
@@ -175,8 +176,17 @@ void Simulator::ResetFactorization() {
 
 SolveReport Simulator::Solve(Positions* x, const SolverSettings& settings) {
   const auto t0 = Clock::now();
+  const std::vector<GarmentSystem::TermTime> terms_before = system_->term_times();
+  const double queries_before = system_->body_field_query_s();
   SolveReport r = settings.method == SolverMethod::kNewton ? SolveNewton(x, settings) : SolveLbfgs(x, settings);
   r.seconds = Seconds(t0, Clock::now());
+  r.accept_iteration_limit = settings.accept_iteration_limit;
+  r.term_times = system_->term_times();
+  for (size_t t = 0; t < r.term_times.size(); ++t) {
+    r.term_times[t].seconds -= terms_before[t].seconds;
+    r.term_times[t].elements -= terms_before[t].elements;
+  }
+  r.body_field_query_s = system_->body_field_query_s() - queries_before;
   return r;
 }
 
@@ -508,6 +518,17 @@ void AccumulateSolve(SolveReport* total, const SolveReport& later) {
   sum.pcg_iterations += total->pcg_iterations;
   sum.local_steps += total->local_steps;
   sum.energy_evaluations += total->energy_evaluations;
+  sum.body_field_query_s += total->body_field_query_s;
+  for (const GarmentSystem::TermTime& t : total->term_times) {
+    auto same = std::find_if(sum.term_times.begin(), sum.term_times.end(),
+                             [&](const GarmentSystem::TermTime& u) { return std::string_view(u.name) == t.name; });
+    if (same == sum.term_times.end()) {
+      sum.term_times.push_back(t);
+    } else {
+      same->seconds += t.seconds;
+      same->elements += t.elements;
+    }
+  }
   *total = sum;
 }
 

@@ -1,0 +1,53 @@
+#include "core/beso/design_compare.h"
+
+#include <memory>
+#include <nanoflann.hpp>
+
+namespace kgd {
+namespace {
+
+struct Centroids {
+  Positions points;
+  size_t kdtree_get_point_count() const { return points.rows(); }
+  double kdtree_get_pt(size_t i, size_t dim) const { return points(i, dim); }
+  template <class BBox>
+  bool kdtree_get_bbox(BBox&) const { return false; }
+};
+
+Positions FaceCentroids(const TriMesh& m) {
+  Positions c(m.faces.rows(), 3);
+  for (Eigen::Index f = 0; f < m.faces.rows(); ++f)
+    c.row(f) = (m.vertices.row(m.faces(f, 0)) + m.vertices.row(m.faces(f, 1)) + m.vertices.row(m.faces(f, 2))) / 3.0;
+  return c;
+}
+
+}  // namespace
+
+double DesignJaccard(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, const Eigen::VectorXd& face_area_m2) {
+  double both = 0, either = 0;
+  for (size_t f = 0; f < a.size(); ++f) {
+    const bool ra = a[f] != 0, rb = b[f] != 0;
+    if (ra && rb) both += face_area_m2[f];
+    if (ra || rb) either += face_area_m2[f];
+  }
+  return either > 0 ? both / either : 1.0;
+}
+
+std::vector<uint8_t> TransferDesign(const TriMesh& from, const std::vector<uint8_t>& design, const TriMesh& to) {
+  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Centroids>, Centroids, 3, int>;
+  Centroids cloud{FaceCentroids(from)};
+  Tree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+  tree.buildIndex();
+  const Positions targets = FaceCentroids(to);
+  std::vector<uint8_t> out(to.faces.rows(), 0);
+  for (Eigen::Index f = 0; f < targets.rows(); ++f) {
+    const Eigen::Vector3d q = targets.row(f).transpose();
+    int nearest = 0;
+    double d2 = 0;
+    tree.knnSearch(q.data(), 1, &nearest, &d2);
+    out[f] = design[nearest];
+  }
+  return out;
+}
+
+}  // namespace kgd
