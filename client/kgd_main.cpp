@@ -6,6 +6,7 @@
 #include "client/design_command.h"
 #include "client/service_commands.h"
 #include "client/simulate_command.h"
+#include "client/study_command.h"
 #include "core/util/pinned_kernels.h"
 
 int main(int argc, char** argv) {
@@ -17,6 +18,7 @@ int main(int argc, char** argv) {
   kgd::cli::AddBodyCommand(app, &exit_code);
   kgd::cli::AddDesignCommands(app, &exit_code);
   kgd::cli::AddServiceCommands(app, &exit_code);
+  kgd::cli::AddStudyCommand(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
