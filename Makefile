@@ -3,7 +3,7 @@ BUILD ?= build
 JOBS ?= 2
 CMAKE_FLAGS ?=
 
-.PHONY: setup build demo test acceptance test-sanitize bench study study-makehuman fuzz clean
+.PHONY: setup build demo test acceptance stability test-sanitize bench study study-accuracy study-makehuman fuzz clean
 
 setup:
 	bash scripts/setup.sh
@@ -22,12 +22,16 @@ demo: build
 # instead of holding the whole run.
 test: build
 	bash scripts/setup.sh --browser
-	cd $(BUILD) && ctest --output-on-failure -j$(JOBS) -LE acceptance --timeout 1200
+	cd $(BUILD) && ctest --output-on-failure -j$(JOBS) -LE 'acceptance|long' --timeout 1200
 
 # The whole-body scenes' frames (slouch, crouch, lunge), a few minutes; the whole BESO designs of
 # acceptance 2 (tests/beso_acceptance_test.cpp) are part of `make test`.
 acceptance: build
 	cd $(BUILD) && ctest --output-on-failure -L acceptance
+
+# The stability suite with its long cases (a 100k-vertex garment: time and memory printed).
+stability: build
+	cd $(BUILD) && ctest --output-on-failure -L stability --timeout 3600
 
 # The same suite built with AddressSanitizer and UndefinedBehaviorSanitizer.
 test-sanitize:
@@ -45,6 +49,14 @@ bench: build
 # The design study of docs/RESULTS.md: all seven built-in scenes to the budget (about ten minutes).
 study: build
 	bash scripts/design_study.sh $(BUILD)
+
+# What accuracy costs in time (docs/ACCURACY.md and its plots, generated): the arm-flexion design at seven
+# solver tolerances, two model variants, three resolutions and three solver methods (about an hour).
+study-accuracy: build
+	$(BUILD)/client/kgd study accuracy arm_flexion --out $(BUILD)/study-accuracy --image-prefix images/accuracy/
+	mkdir -p docs/images/accuracy
+	cp $(BUILD)/study-accuracy/*.svg docs/images/accuracy/
+	cp $(BUILD)/study-accuracy/ACCURACY.md docs/ACCURACY.md
 
 # The same study on the MakeHuman bodies of ../shared/bodies (about fifteen minutes).
 study-makehuman: build

@@ -1,5 +1,7 @@
 #include "client/design_command.h"
 
+#include "core/beso/quality.h"
+
 #include "client/service_commands.h"
 #include "job/fabrication_export.h"
 
@@ -108,7 +110,21 @@ int RunDesign(const DesignOptions& o) {
   std::signal(SIGINT, OnInterrupt);
   std::signal(SIGTERM, OnInterrupt);
 
-  if (!bar && !o.json) std::printf("design %s -> %s (budget %.3g)\n", scene.name.c_str(), path.c_str(), settings.budget);
+  if (!o.json && !resume) {
+    // What the job should take (core/beso/quality.h), before it starts.
+    Result<Quality> quality = QualityFromName(optimizer.quality().empty() ? "standard" : optimizer.quality());
+    const int frames = scene.motion ? static_cast<int>(scene.motion->frames.size()) : 0;
+    const JobCostPrediction p = PredictJobCost({.garment_faces = static_cast<int>(scene.garment.faces.rows()),
+                                                .frames = 0,  // the scene is built: its set-up is spent
+                                                .builtin_body = false,
+                                                .quality = quality.ok() ? *quality : Quality::kStandard},
+                                               settings);
+    std::printf("design %s -> %s (budget %.3g, %s, %d frames): predicted about %.0f s (%d iterations of %.3f s)\n", scene.name.c_str(),
+                path.c_str(), settings.budget, PresetOf(quality.ok() ? *quality : Quality::kStandard).name, frames,
+                p.iteration0_s + p.iterations * p.per_iteration_s, p.iterations, p.per_iteration_s);
+  } else if (!bar && !o.json) {
+    std::printf("design %s -> %s (budget %.3g)\n", scene.name.c_str(), path.c_str(), settings.budget);
+  }
   Status write_status = Status::Ok();
   std::vector<double> recent;  // seconds of the last iterations, for the ETA
   double elapsed = 0;

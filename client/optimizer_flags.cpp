@@ -43,8 +43,11 @@ void AddOptimizerFlags(CLI::App* d, OptimizerFlags* o) {
   KGD_BESO_SWITCHES(KGD_ADD_SWITCH_FLAG)
 #undef KGD_ADD_SWITCH_FLAG
   d->add_option("--max-newton", o->max_newton, "Solver iteration limit per BESO iteration (default 200)")->check(CLI::PositiveNumber);
-  d->add_option("--grad-tol", o->grad_tol, "Solver gradient tolerance, dimensionless (default 1e-4, see docs/MODEL.md)")
+  d->add_option("--grad-tol", o->grad_tol, "Solver gradient tolerance, dimensionless (default 1e-4, see docs/MODEL.md); overrides --quality")
       ->check(CLI::PositiveNumber & finite);
+  d->add_option("--quality", o->quality,
+                "Accuracy preset: draft (grad_tol 1e-3), standard (1e-4) or precise (1e-6); what each costs and buys: docs/ACCURACY.md")
+      ->check(CLI::IsMember({"draft", "standard", "precise"}));
 }
 
 v1::OptimizerSettings ToProto(const OptimizerFlags& o) {
@@ -59,6 +62,7 @@ v1::OptimizerSettings ToProto(const OptimizerFlags& o) {
 #undef KGD_SWITCH_TO_PROTO
   if (Given(o.max_newton)) s.set_max_newton_iterations(o.max_newton);
   if (Given(o.grad_tol)) s.set_grad_tol(o.grad_tol);
+  if (!o.quality.empty()) s.set_quality(o.quality);
   return s;
 }
 

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <string>
 
 #include "core/beso/beso.h"
 #include "kgd/v1/kgd.pb.h"
@@ -23,6 +24,7 @@ struct OptimizerFlags {
 #undef KGD_DECLARE_SWITCH_FLAG
   double grad_tol;
   int max_newton = kUnset;
+  std::string quality;  // empty: not given
   OptimizerFlags();
 };
 

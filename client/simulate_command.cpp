@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -17,6 +18,7 @@
 #include "core/scene/scene_file.h"
 #include "core/scene/scene_keys.h"
 #include "core/scene/builtin_scenes.h"
+#include "core/beso/quality.h"
 
 namespace kgd::cli {
 namespace {
@@ -259,10 +261,21 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
 
   CLI::App* scenes = app.add_subcommand("scenes", "List the built-in scenes");
   scenes->callback([exit_code] {
-    std::printf("%-26s %-12s %-7s %-7s %-7s %s\n", "name", "garment", "faces", "budget", "frames", "description");
-    for (const BuiltinSceneInfo& s : BuiltinSceneInfos())
-      std::printf("%-26s %-12s %-7d %-7.2f %-7s %s\n", s.name.c_str(), s.garment.empty() ? "-" : s.garment.c_str(), s.garment_faces, s.budget,
-                  s.frames ? std::to_string(s.frames).c_str() : "-", s.description.c_str());
+    std::printf("%-26s %-12s %-7s %-7s %-7s %-18s %s\n", "name", "garment", "faces", "budget", "frames", "predicted (s)", "description");
+    for (const BuiltinSceneInfo& s : BuiltinSceneInfos()) {
+      // The whole design job per preset (draft / standard / precise), core/beso/quality.h.
+      std::string predicted;
+      BesoSettings settings;
+      settings.budget = s.budget < 1 ? s.budget : settings.budget;
+      for (const QualityPreset& q : QualityPresets())
+        predicted += (predicted.empty() ? "" : "/") +
+                     std::to_string(static_cast<int>(std::lround(
+                         PredictJobCost({.garment_faces = s.garment_faces, .frames = s.frames, .builtin_body = s.parametric_body, .quality = q.quality},
+                                        settings)
+                             .total_s())));
+      std::printf("%-26s %-12s %-7d %-7.2f %-7s %-18s %s\n", s.name.c_str(), s.garment.empty() ? "-" : s.garment.c_str(), s.garment_faces,
+                  s.budget, s.frames ? std::to_string(s.frames).c_str() : "-", predicted.c_str(), s.description.c_str());
+    }
     *exit_code = 0;
   });
 

@@ -1,6 +1,7 @@
 #include "proto/job_spec.h"
 #include "core/scene/scene_file.h"
 #include "core/scene/builtin_scenes.h"
+#include "core/beso/quality.h"
 
 #include <unistd.h>
 
@@ -119,11 +120,14 @@ Result<BesoSettings> SettingsOfJob(const v1::OptimizerSettings& o, double scene_
     return Status::Error("max_newton_iterations = " + std::to_string(o.max_newton_iterations()) + " must be >= 1");
   if (o.has_grad_tol() && !(o.grad_tol() > 0 && std::isfinite(o.grad_tol())))
     return Status::Error("grad_tol = " + std::to_string(o.grad_tol()) + " must be finite and > 0");
+  if (!o.quality().empty())
+    if (Result<Quality> q = QualityFromName(o.quality()); !q.ok()) return q.status();
   return s;
 }
 
 void ApplySolverOverrides(const v1::OptimizerSettings& o, SolverSettings* solver) {
   if (o.has_max_newton_iterations()) solver->max_iterations = o.max_newton_iterations();
+  if (Result<Quality> q = QualityFromName(o.quality()); !o.quality().empty() && q.ok()) solver->grad_tol = PresetOf(*q).grad_tol;
   if (o.has_grad_tol()) solver->grad_tol = o.grad_tol();
 }
 

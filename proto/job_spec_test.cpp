@@ -72,6 +72,30 @@ TEST(JobSpec, UnsetSettingsAreTheDefaultsAndTheSceneBudgetApplies) {
   EXPECT_FALSE(SettingsOfJob(o, 0.2)->temporal_averaging);
 }
 
+// The accuracy preset sets the solver tolerance; an explicit grad_tol wins; an unknown preset is refused
+// naming it.
+TEST(JobSpec, TheQualityPresetSetsTheToleranceUnlessGradTolIsGiven) {
+  v1::OptimizerSettings o;
+  SolverSettings solver;
+  solver.grad_tol = 3e-4;  // the scene's own
+  ApplySolverOverrides(o, &solver);
+  EXPECT_EQ(solver.grad_tol, 3e-4);
+  o.set_quality("precise");
+  ASSERT_TRUE(SettingsOfJob(o, 1.0).ok());
+  ApplySolverOverrides(o, &solver);
+  EXPECT_EQ(solver.grad_tol, 1e-6);
+  o.set_quality("draft");
+  ApplySolverOverrides(o, &solver);
+  EXPECT_EQ(solver.grad_tol, 1e-3);
+  o.set_grad_tol(2e-5);
+  ApplySolverOverrides(o, &solver);
+  EXPECT_EQ(solver.grad_tol, 2e-5);
+  o.set_quality("ultra");
+  Result<BesoSettings> bad = SettingsOfJob(o, 1.0);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.message().find("quality: 'ultra'"), std::string::npos) << bad.message();
+}
+
 TEST(JobSpec, ASceneFileTravelsWithItsMeshes) {
   const std::string dir = (std::filesystem::temp_directory_path() / "kgd_job_spec_test_scene").string();
   std::filesystem::remove_all(dir);

@@ -1,5 +1,7 @@
 #include "server/job_service.h"
 
+#include "core/beso/quality.h"
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -434,6 +436,12 @@ ServiceStatus JobService::ListScenes(v1::ListScenesResponse* out) {
     b->set_parametric_body(s.parametric_body);
     b->set_garment_faces(s.garment_faces);
     b->set_garment_area_m2(s.garment_area_m2);
+    BesoSettings settings;
+    settings.budget = s.budget < 1 ? s.budget : settings.budget;
+    for (const QualityPreset& q : QualityPresets())
+      (*b->mutable_predicted_job_s())[q.name] =
+          PredictJobCost({.garment_faces = s.garment_faces, .frames = s.frames, .builtin_body = s.parametric_body, .quality = q.quality}, settings)
+              .total_s();
   }
   for (const MeasurementRange& r : BodyMeasurementRanges()) {
     v1::BodyMeasurement* m = out->add_body_measurements();

@@ -18,6 +18,7 @@
 #include "core/scene/paper_scenes.h"
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
+#include "core/scene/scene_cache.h"
 #include "core/scene/builtin_scenes.h"
 
 namespace kgd {
@@ -168,6 +169,65 @@ std::string RunKgd(const std::string& args, int* exit_code) {
   return out;
 }
 
+// The scene cache: a built-in scene stored and loaded again is the same scene bit for bit; a damaged
+// entry is not used (and is written again); `kgd design` on a cached scene gives the same design.
+TEST(BuiltinScenes, TheSceneCacheGivesTheSameSceneAndIgnoresADamagedEntry) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "kgd_scene_cache_test";
+  std::filesystem::remove_all(dir);
+  setenv("KGD_CACHE_DIR", dir.c_str(), 1);
+  Result<SceneSpec> built = ::kgd::BuiltinScene("knee_extension");
+  ASSERT_TRUE(built.ok()) << built.message();
+  EXPECT_FALSE(LoadCachedScene("knee_extension", BodyMeasurements()).has_value());
+  Result<SceneSpec> first = ResolveBuiltinScene("knee_extension", {});  // a miss: built and stored
+  ASSERT_TRUE(first.ok());
+  std::optional<SceneSpec> cached = LoadCachedScene("knee_extension", BodyMeasurements());
+  ASSERT_TRUE(cached.has_value());
+  auto expect_same = [](const SceneSpec& a, const SceneSpec& b) {
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_TRUE(a.garment.vertices == b.garment.vertices);
+    EXPECT_TRUE(a.garment.faces == b.garment.faces);
+    EXPECT_TRUE(a.initial == b.initial);
+    EXPECT_TRUE(a.on_body == b.on_body);
+    EXPECT_EQ(a.design, b.design);
+    EXPECT_EQ(a.attachment_faces, b.attachment_faces);
+    EXPECT_EQ(a.budget, b.budget);
+    ASSERT_EQ(a.body.has_value(), b.body.has_value());
+    if (a.body) {
+      EXPECT_TRUE(a.body->vertices == b.body->vertices && a.body->faces == b.body->faces);
+    }
+    ASSERT_EQ(a.motion.has_value(), b.motion.has_value());
+    if (a.motion) {
+      ASSERT_EQ(a.motion->frames.size(), b.motion->frames.size());
+      for (size_t k = 0; k < a.motion->frames.size(); ++k) EXPECT_TRUE(a.motion->frames[k] == b.motion->frames[k]) << "frame " << k;
+    }
+  };
+  expect_same(*built, *cached);
+  Result<SceneSpec> second = ResolveBuiltinScene("knee_extension", {});  // a hit
+  ASSERT_TRUE(second.ok());
+  expect_same(*built, *second);
+  // Other measurements, another entry.
+  BodyMeasurements taller;
+  taller.height_m = 1.85;
+  EXPECT_FALSE(LoadCachedScene("knee_extension", taller).has_value());
+  // A damaged file: the entry is not used.
+  std::filesystem::path obj;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir))
+    if (e.path().filename() == "body_rest.obj") obj = e.path();
+  ASSERT_FALSE(obj.empty());
+  { std::ofstream(obj, std::ios::app) << "v 0 0 0\n"; }
+  EXPECT_FALSE(LoadCachedScene("knee_extension", BodyMeasurements()).has_value());
+  Result<SceneSpec> rebuilt = ResolveBuiltinScene("knee_extension", {});  // built and stored again
+  ASSERT_TRUE(rebuilt.ok());
+  expect_same(*built, *rebuilt);
+  EXPECT_TRUE(LoadCachedScene("knee_extension", BodyMeasurements()).has_value());
+  // Off.
+  setenv("KGD_CACHE_DIR", "off", 1);
+  EXPECT_EQ(SceneCacheDir(), "");
+  EXPECT_FALSE(LoadCachedScene("knee_extension", BodyMeasurements()).has_value());
+  unsetenv("KGD_CACHE_DIR");
+  std::filesystem::remove_all(dir);
+}
+
 // `kgd simulate --profile` names the terms a scene built and where the time went: a flat pull test
 // builds no contact term (and queries no body field), a sleeve on a limb does.
 TEST(BuiltinScenes, SimulateProfileNamesTheTermsBuiltAndTheirTimes) {
@@ -195,7 +255,9 @@ TEST(BuiltinScenes, SimulateProfileNamesTheTermsBuiltAndTheirTimes) {
     EXPECT_LE(terms_s, p.at("solve_s").get<double>());
     EXPECT_GT(p.at("factorization_s").get<double>(), 0.0);
     EXPECT_GE(p.at("scene_s").get<double>(), 0.0);
-    if (std::string(c.scene) == "pull_test_line") EXPECT_EQ(p.at("body_field_query_s").get<double>(), 0.0);
+    if (std::string(c.scene) == "pull_test_line") {
+      EXPECT_EQ(p.at("body_field_query_s").get<double>(), 0.0);
+    }
     const std::string human = RunKgd(std::string("simulate ") + c.scene + " --profile", &code);
     EXPECT_NE(human.find("terms built"), std::string::npos) << human;
   }

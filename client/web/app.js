@@ -63,6 +63,14 @@ function sceneChanged() {
   const s = state.scenes.find((x) => x.name === $('scene').value);
   $('scene-description').textContent = s ? `${s.description}${s.frames ? ` ${s.frames} frames.` : ''}` : '';
   $('body-details').hidden = !s?.parametricBody;
+  showPrediction();
+}
+
+// The server's cost model for the chosen scene and preset (a built-in scene on the default body).
+function showPrediction() {
+  const s = state.scenes.find((x) => x.name === $('scene').value);
+  const t = s?.predictedJobS?.[$('quality').value];
+  $('predicted-time').textContent = t ? `Predicted time on two cores: about ${t < 90 ? `${Math.round(t)} s` : `${Math.round(t / 60)} min`}` : '';
 }
 
 function clearErrors() {
@@ -84,7 +92,7 @@ function showError(message) {
 async function submit(ev) {
   ev.preventDefault();
   clearErrors();
-  const spec = { optimizer: {}, label: $('label').value };
+  const spec = { optimizer: { quality: $('quality').value }, label: $('label').value };
   const budget = $('budget').value, iters = $('max-iterations').value;
   if (budget !== '') {
     const b = Number(budget);
@@ -354,6 +362,7 @@ function renderDownloads() {
 
 $('submit-form').addEventListener('submit', submit);
 $('scene').addEventListener('change', sceneChanged);
+$('quality').addEventListener('change', showPrediction);
 for (const r of document.querySelectorAll('input[name=source]'))
   r.addEventListener('change', () => {
     const builtin = document.querySelector('input[name=source]:checked').value === 'builtin';

@@ -33,7 +33,9 @@ TEST(DesignCompare, ADesignCarriedToAFinerMeshAndBackIsUnchanged) {
   std::vector<uint8_t> prolonged(fine.faces.rows());
   for (Eigen::Index f = 0; f < fine.faces.rows(); ++f) {
     prolonged[f] = design[f / 4];
-    if (f % 4 == 3) EXPECT_EQ(carried[f], design[f / 4]) << "middle child " << f;
+    if (f % 4 == 3) {
+      EXPECT_EQ(carried[f], design[f / 4]) << "middle child " << f;
+    }
   }
   EXPECT_GT(DesignJaccard(carried, prolonged, FaceAreas(fine.vertices, fine.faces)), 0.9);
   const std::vector<uint8_t> back = TransferDesign(fine, carried, coarse);

@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <locale>
 #include <sstream>
 
 namespace kgd {
@@ -71,6 +72,22 @@ Status ValidateMesh(const Positions& x, const Faces& faces, const std::string& n
            << x(v, 2) << ")";
         return Status::Error(os.str());
       }
+  // Bodies and garments are metres across: a mesh hundreds of metres across was written in millimetres
+  // (or centimetres), and simulating it would give plausible-looking nonsense.
+  const double across = (x.colwise().maxCoeff() - x.colwise().minCoeff()).norm();
+  if (across > kMaxMeshExtent_m) {
+    std::ostringstream os;
+    os.imbue(std::locale::classic());
+    const long long metres = std::llround(across);
+    std::string digits = std::to_string(metres), grouped;
+    for (size_t i = 0; i < digits.size(); ++i) {
+      if (i > 0 && (digits.size() - i) % 3 == 0) grouped += ',';
+      grouped += digits[i];
+    }
+    os << prefix << "the mesh is " << grouped << " m across: millimetres? kgd reads metres (SI); scale the mesh by "
+       << (across > 2000 ? "0.001" : "0.01");
+    return Status::Error(os.str());
+  }
   for (Eigen::Index f = 0; f < faces.rows(); ++f) {
     for (int k = 0; k < 3; ++k)
       if (faces(f, k) < 0 || faces(f, k) >= x.rows()) {

@@ -36,8 +36,11 @@ Eigen::VectorXd OneRingMeanEdgeLength(const Positions& x, const Faces& faces);
 // Centroid of each listed face.
 Positions FaceCentroids(const Positions& x, const Faces& faces, const std::vector<int>& face_ids);
 
-// Checks what the simulator relies on: finite coordinates, indices in range, no zero-area (or
-// collinear) faces. `name` (a file name) prefixes the message, which names the vertex or face and value.
+// Checks what the simulator relies on: finite coordinates, a size that is metres (at most
+// kMaxMeshExtent_m across: a larger mesh is taken for one in millimetres or centimetres), indices in
+// range, no zero-area (or collinear) faces. `name` (a file name) prefixes the message, which names the
+// vertex or face and value.
+inline constexpr double kMaxMeshExtent_m = 20.0;
 Status ValidateMesh(const Positions& x, const Faces& faces, const std::string& name);
 
 // Checks that a list of face indices is in range and free of duplicates; `what` names the list.

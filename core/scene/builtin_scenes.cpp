@@ -1,4 +1,5 @@
 #include "core/scene/builtin_scenes.h"
+#include "core/scene/scene_cache.h"
 
 #include <cmath>
 #include <filesystem>
@@ -198,7 +199,16 @@ Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::st
 Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector<std::string>& body_items) {
   Result<std::optional<BodyMeasurements>> body = ParseBodyMeasurements(body_items);
   if (!body.ok()) return body.status();
-  return *body ? BuiltinScene(name, **body) : BuiltinScene(name);
+  // The paper's scenes are built on the parametric body (seconds); on a warm machine they come from the
+  // scene cache (a fraction of a second). The quick simulator checks are built every time.
+  bool parametric = false;
+  for (const PaperMotion& m : PaperMotions()) parametric = parametric || m.name == name;
+  const BodyMeasurements measurements = *body ? **body : BodyMeasurements();
+  if (parametric)
+    if (std::optional<SceneSpec> cached = LoadCachedScene(name, measurements)) return std::move(*cached);
+  Result<SceneSpec> built = *body ? BuiltinScene(name, **body) : BuiltinScene(name);
+  if (parametric && built.ok()) (void)StoreCachedScene(name, measurements, *built);
+  return built;
 }
 
 

@@ -530,7 +530,9 @@ TEST(GarmentSystem, AnEffectLeftOffIsNeitherBuiltNorEvaluated) {
       const long fields_before = BodyField::BuildCount();
       auto model = BuildGarmentModel(s);
       ASSERT_TRUE(model.ok()) << model.message();
-      if (std::string_view(c.term) == "contact") EXPECT_EQ(BodyField::BuildCount() - fields_before, on ? 1 : 0);
+      if (std::string_view(c.term) == "contact") {
+        EXPECT_EQ(BodyField::BuildCount() - fields_before, on ? 1 : 0);
+      }
       GarmentSystem sys(std::move(model).value(), s.initial);
       EXPECT_EQ(sys.term_index(c.term) >= 0, on);
       Simulator sim(&sys);
@@ -549,7 +551,9 @@ TEST(GarmentSystem, AnEffectLeftOffIsNeitherBuiltNorEvaluated) {
       double terms_s = 0;
       for (const GarmentSystem::TermTime& t : r.term_times) terms_s += t.seconds;
       EXPECT_LE(terms_s, r.seconds);
-      if (!on && std::string_view(c.term) == "contact") EXPECT_EQ(r.body_field_query_s, 0.0);
+      if (!on && std::string_view(c.term) == "contact") {
+        EXPECT_EQ(r.body_field_query_s, 0.0);
+      }
     }
   }
   // Clamps: a scene without them keeps every coordinate free.

@@ -1,0 +1,63 @@
+#include "core/beso/quality.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace kgd {
+namespace {
+
+// The fit (docs/ACCURACY.md, "Predicted job time"); seconds per garment face, per frame, and fixed. Per
+// iteration and iteration 0: the arm-flexion study (13,936 faces) at grad_tol 1e-3, 1e-4 and 1e-6. Set-up:
+// a built-in scene read from the scene cache (core/scene/scene_cache.h); a first build costs seconds more.
+constexpr double kDraftIterationRate = 2.9e-6, kDraftIteration0Rate = 3.4e-5;
+constexpr double kStandardIterationRate = 5.0e-6, kStandardIteration0Rate = 7.2e-5;
+constexpr double kPreciseIterationRate = 4.7e-5, kPreciseIteration0Rate = 1.65e-4;
+constexpr double kSetupBase_s = 0.05, kSetupPerFrame_s = 0.02, kSetupPerFace_s = 2.0e-5;
+
+}  // namespace
+
+const std::vector<QualityPreset>& QualityPresets() {
+  static const std::vector<QualityPreset> presets = {
+      {Quality::kDraft, "draft", 1e-3},
+      {Quality::kStandard, "standard", 1e-4},
+      {Quality::kPrecise, "precise", 1e-6},
+  };
+  return presets;
+}
+
+const QualityPreset& PresetOf(Quality q) {
+  for (const QualityPreset& p : QualityPresets())
+    if (p.quality == q) return p;
+  return QualityPresets()[1];
+}
+
+Result<Quality> QualityFromName(std::string_view name) {
+  std::string list;
+  for (const QualityPreset& p : QualityPresets()) {
+    if (name == p.name) return p.quality;
+    list += (list.empty() ? "" : ", ") + std::string(p.name);
+  }
+  return Status::Error("quality: '" + std::string(name) + "' is not a preset (one of: " + list + ")");
+}
+
+JobCostPrediction PredictJobCost(const JobCostInput& in, const BesoSettings& settings) {
+  // Fitted on the built-in scenes with the pinned kernels on 2 cores (docs/ACCURACY.md, "Predicted job
+  // time"): time per garment face of a warm re-solve and of the cold first solve, per preset, and the
+  // set-up of the parametric body's poses per frame.
+  struct Rates {
+    double per_iteration_s_per_face, iteration0_s_per_face;
+  };
+  const Rates rates = in.quality == Quality::kDraft     ? Rates{kDraftIterationRate, kDraftIteration0Rate}
+                      : in.quality == Quality::kPrecise ? Rates{kPreciseIterationRate, kPreciseIteration0Rate}
+                                                        : Rates{kStandardIterationRate, kStandardIteration0Rate};
+  JobCostPrediction p;
+  const double v = std::max(in.garment_faces, 1);
+  p.setup_s = in.builtin_body ? kSetupBase_s + kSetupPerFrame_s * in.frames + kSetupPerFace_s * v : kSetupPerFace_s * v;
+  p.iteration0_s = rates.iteration0_s_per_face * v;
+  p.per_iteration_s = rates.per_iteration_s_per_face * v;
+  const double shrink = std::log(std::max(settings.budget, 1e-6)) / std::log1p(-settings.evolutionary_ratio);
+  p.iterations = std::min(settings.max_iterations, static_cast<int>(std::ceil(shrink)) + settings.converge_window + 2);
+  return p;
+}
+
+}  // namespace kgd

@@ -1,0 +1,54 @@
+// Accuracy presets of a design job and the cost model that predicts a job's time before it starts.
+//
+// A preset sets the solver's gradient tolerance per BESO iteration (SolverSettings::grad_tol); each is
+// a point on the accuracy/time front that `kgd study accuracy` measures (docs/ACCURACY.md):
+//   draft     1e-3: about half the time of standard per iteration; designs of the same density ratio
+//                   within about 1 %, but another design (the BESO path is sensitive)
+//   standard  1e-4: the default (the paper's |g| < 1e-7 MN on its arm sleeve)
+//   precise   1e-6: several times the time of standard; the reference designs are made at 1e-8
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/beso/beso.h"
+#include "core/util/status.h"
+
+namespace kgd {
+
+enum class Quality { kDraft, kStandard, kPrecise };
+
+struct QualityPreset {
+  Quality quality;
+  const char* name;  // "draft", "standard", "precise"
+  double grad_tol;
+};
+// In order: draft, standard, precise.
+const std::vector<QualityPreset>& QualityPresets();
+const QualityPreset& PresetOf(Quality q);
+// Errors name the value and the choices.
+Result<Quality> QualityFromName(std::string_view name);
+
+// What the time of a design job depends on, known before it starts.
+struct JobCostInput {
+  int garment_faces = 0;
+  int frames = 0;             // motion frames the job poses the body through (0: rest and deformed pose only)
+  bool builtin_body = true;   // the parametric body is built and posed (scene files bring their meshes)
+  Quality quality = Quality::kStandard;
+};
+
+struct JobCostPrediction {
+  double setup_s = 0;          // scene: body, poses, garment
+  double iteration0_s = 0;     // the fully reinforced garment, solved cold
+  int iterations = 0;          // BESO iterations to the budget and a flat objective
+  double per_iteration_s = 0;  // a warm re-solve and a design update
+  double total_s() const { return setup_s + iteration0_s + iterations * per_iteration_s; }
+};
+
+// A prediction on this project's reference machine (2 cores; docs/ACCURACY.md states the fit and its
+// error on the built-in scenes). Iterations: the target area shrinks by ER per iteration to the budget,
+// then the convergence window.
+JobCostPrediction PredictJobCost(const JobCostInput& input, const BesoSettings& settings);
+
+}  // namespace kgd

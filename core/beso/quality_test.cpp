@@ -1,0 +1,51 @@
+// Accuracy presets and the job cost model.
+#include "core/beso/quality.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/sim/simulator.h"
+
+namespace kgd {
+namespace {
+
+TEST(Quality, PresetsAreOrderedFromFastToAccurateAndNamed) {
+  const std::vector<QualityPreset>& p = QualityPresets();
+  ASSERT_EQ(p.size(), 3u);
+  EXPECT_STREQ(p[0].name, "draft");
+  EXPECT_STREQ(p[1].name, "standard");
+  EXPECT_STREQ(p[2].name, "precise");
+  EXPECT_GT(p[0].grad_tol, p[1].grad_tol);
+  EXPECT_GT(p[1].grad_tol, p[2].grad_tol);
+  EXPECT_EQ(PresetOf(Quality::kStandard).grad_tol, SolverSettings().grad_tol);  // standard is the default
+  EXPECT_EQ(*QualityFromName("precise"), Quality::kPrecise);
+  Result<Quality> bad = QualityFromName("ultra");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.message().find("'ultra' is not a preset (one of: draft, standard, precise)"), std::string::npos) << bad.message();
+}
+
+// Iterations: the target area shrinks by ER per iteration to the budget, then the window (and two for
+// the last update and the objective's settling); time grows with the garment and the preset.
+TEST(Quality, PredictedJobsGrowWithGarmentPresetAndBudget) {
+  BesoSettings s;
+  s.budget = 0.15;
+  const JobCostPrediction arm = PredictJobCost({.garment_faces = 13936, .frames = 4}, s);
+  EXPECT_EQ(arm.iterations, static_cast<int>(std::ceil(std::log(0.15) / std::log(1 - 0.015))) + 5 + 2);
+  EXPECT_NEAR(arm.total_s(), arm.setup_s + arm.iteration0_s + arm.iterations * arm.per_iteration_s, 1e-12);
+  const JobCostPrediction knee = PredictJobCost({.garment_faces = 5200, .frames = 4}, s);
+  EXPECT_LT(knee.total_s(), arm.total_s());
+  double last = 0;
+  for (Quality q : {Quality::kDraft, Quality::kStandard, Quality::kPrecise}) {
+    const double t = PredictJobCost({.garment_faces = 13936, .frames = 4, .quality = q}, s).total_s();
+    EXPECT_GT(t, last);
+    last = t;
+  }
+  s.budget = 0.5;
+  EXPECT_LT(PredictJobCost({.garment_faces = 13936, .frames = 4}, s).iterations, arm.iterations);
+  s.max_iterations = 10;
+  EXPECT_EQ(PredictJobCost({.garment_faces = 13936, .frames = 4}, s).iterations, 10);
+}
+
+}  // namespace
+}  // namespace kgd
