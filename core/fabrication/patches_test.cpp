@@ -52,8 +52,8 @@ TEST(CleanDesign, RemovesFeaturesThinnerThanTheMinimumAndKeepsWiderOnes) {
   for (Eigen::Index f = 0; f < s.mesh.faces.rows(); ++f) {
     const double x = s.centroid(f, 0), z = s.centroid(f, 2);
     const bool wide = block(x, z) || (x > 0.02 && x < 0.025 && z > 0.01 && z < 0.09);
-    if (wide && !near_corner(x, z)) EXPECT_TRUE(c.design[f]) << "a wide part lost the face at " << x << ", " << z;
-    if (!wide && std::abs(x - 0.0225) > 0.004) EXPECT_FALSE(c.design[f]) << "the thin strip kept the face at " << x << ", " << z;
+    if (wide && !near_corner(x, z)) { EXPECT_TRUE(c.design[f]) << "a wide part lost the face at " << x << ", " << z; }
+    if (!wide && std::abs(x - 0.0225) > 0.004) { EXPECT_FALSE(c.design[f]) << "the thin strip kept the face at " << x << ", " << z; }
   }
   EXPECT_NEAR(c.removed_m2, s.Area(d) - s.Area(c.design), 1e-12);
   EXPECT_NEAR(c.removed_m2, 0.002 * 0.075, 10e-6) << "the thin strip's area, to a few corner cells";
@@ -72,8 +72,8 @@ TEST(CleanDesign, DropsSmallIslandsAndFillsSmallHoles) {
   EXPECT_EQ(c.holes_filled, 1);
   for (Eigen::Index f = 0; f < s.mesh.faces.rows(); ++f) {
     const double x = s.centroid(f, 0), z = s.centroid(f, 2);
-    if (x > 0.05 && x < 0.054 && z > 0.05 && z < 0.054) EXPECT_TRUE(c.design[f]) << "the hole is filled";
-    if (x < 0.015 && z < 0.015) EXPECT_FALSE(c.design[f]) << "the island is gone";
+    if (x > 0.05 && x < 0.054 && z > 0.05 && z < 0.054) { EXPECT_TRUE(c.design[f]) << "the hole is filled"; }
+    if (x < 0.015 && z < 0.015) { EXPECT_FALSE(c.design[f]) << "the island is gone"; }
   }
   // Kept faces (attachments) hold their island.
   const std::vector<uint8_t> keep = s.Where([](double x, double z) { return x < 0.012 && z < 0.012; });

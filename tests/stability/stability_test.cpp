@@ -1,7 +1,7 @@
 // The stability suite: hard cases, each with the outcome kgd promises on it. Every case either
 // converges (energy, force or design checked) or stops with a typed failure that names the cause; no
 // output holds a NaN or an infinity; nothing crashes or hangs; no triangle ends inverted; a re-run is
-// bit-identical. Fast cases run in `make test`; the long ones (label `long`) in `make stability`.
+// bit-identical. Fast cases run in `make test`; the long ones (label `stability-long`) in `make stability`.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -63,32 +63,41 @@ PaperMotion Motion(const std::string& name) {
 // Deep creases: the elbow at 150 degrees and the knee at 160 fold the sleeve onto itself inside the
 // joint, where the skin of the body interpenetrates. The fold barrier keeps every triangle the right way
 // out. The fully reinforced arm sleeve reaches equilibrium within the default 200 Newton iterations; the
-// knee sleeve needs about 800: with the default limit it stops with a typed failure that says so, and
-// with a limit of 1000 it converges.
-TEST(Stability, DeepCreasesAtTheElbowAndKneeReachEquilibrium) {
+// knee sleeve needs about 800: with the default limit it stops with a typed failure that says so (here),
+// and with a limit of 1000 it converges (StabilityLong.TheKneeAt160DegreesConvergesGivenTheIterations).
+SceneSpec DeepCrease(const char* motion, const char* joint, double degrees) {
   Result<const ParametricBody*> body = DefaultParametricBody();
-  ASSERT_TRUE(body.ok()) << body.message();
-  for (const auto& [name, joint, degrees] : {std::tuple<const char*, const char*, double>{"arm_flexion", "r_elbow_flex", 150},
-                                             std::tuple<const char*, const char*, double>{"knee_flexion", "r_knee_flex", 160}}) {
-    SCOPED_TRACE(name);
-    PaperMotion m = Motion(name);
-    m.pose[joint] = degrees * M_PI / 180;
-    m.frames = 1;
-    m.subdivisions = 1;
-    Result<SceneSpec> scene = PaperScene(**body, m);
-    ASSERT_TRUE(scene.ok()) << scene.message();
-    scene->design.assign(scene->design.size(), kReinforced);
-    if (std::string(name) == "knee_flexion") {
-      Result<SimulationResult> limited = SimulateScene(*scene);
-      ASSERT_TRUE(limited.ok()) << limited.message();
-      ExpectFinite(*limited);
-      EXPECT_EQ(limited->solve.status, SolveStatus::kIterationLimit);
-      EXPECT_NE(limited->solve.message.find("no convergence in 200 Newton iterations"), std::string::npos) << limited->solve.message;
-      EXPECT_EQ(limited->inverted_faces, 0);
-      scene->solver.max_iterations = 1000;
-    }
-    const SimulationResult r = ExpectStableEquilibrium(*scene);
+  EXPECT_TRUE(body.ok()) << body.message();
+  if (!body.ok()) return {};
+  PaperMotion m = Motion(motion);
+  m.pose[joint] = degrees * M_PI / 180;
+  m.frames = 1;
+  m.subdivisions = 1;
+  Result<SceneSpec> scene = PaperScene(**body, m);
+  EXPECT_TRUE(scene.ok()) << scene.message();
+  if (!scene.ok()) return {};
+  scene->design.assign(scene->design.size(), kReinforced);
+  return *scene;
+}
+
+TEST(Stability, DeepCreasesAtTheElbowAndKneeReachEquilibriumOrSayWhyNot) {
+  {
+    SCOPED_TRACE("arm_flexion at 150 degrees");
+    const SceneSpec scene = DeepCrease("arm_flexion", "r_elbow_flex", 150);
+    ASSERT_GT(scene.garment.faces.rows(), 0);
+    const SimulationResult r = ExpectStableEquilibrium(scene);
     EXPECT_GT(r.solve.energy_J, 0.0);
+  }
+  {
+    SCOPED_TRACE("knee_flexion at 160 degrees");
+    const SceneSpec scene = DeepCrease("knee_flexion", "r_knee_flex", 160);
+    ASSERT_GT(scene.garment.faces.rows(), 0);
+    Result<SimulationResult> limited = SimulateScene(scene);
+    ASSERT_TRUE(limited.ok()) << limited.message();
+    ExpectFinite(*limited);
+    EXPECT_EQ(limited->solve.status, SolveStatus::kIterationLimit);
+    EXPECT_NE(limited->solve.message.find("no convergence in 200 Newton iterations"), std::string::npos) << limited->solve.message;
+    EXPECT_EQ(limited->inverted_faces, 0);
   }
 }
 
@@ -287,6 +296,15 @@ TEST(StabilityLong, AHundredThousandVertexGarment) {
   const SimulationResult r = ExpectStableEquilibrium(s);
   std::printf("100k garment: %ld vertices, %d Newton iterations, %.2f s\n", static_cast<long>(r.positions.rows()), r.solve.iterations,
               r.solve.seconds);
+}
+
+// Long: the knee at 160 degrees converges given 1,000 Newton iterations (about 800 taken).
+TEST(StabilityLong, TheKneeAt160DegreesConvergesGivenTheIterations) {
+  SceneSpec scene = DeepCrease("knee_flexion", "r_knee_flex", 160);
+  ASSERT_GT(scene.garment.faces.rows(), 0);
+  scene.solver.max_iterations = 1000;
+  const SimulationResult r = ExpectStableEquilibrium(scene);
+  EXPECT_GT(r.solve.energy_J, 0.0);
 }
 
 }  // namespace
