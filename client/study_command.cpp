@@ -400,7 +400,11 @@ int RunStudy(const StudyOptions& o) {
     csv << "grad_tol,force_N,relative_error,seconds,iterations\n";
     for (const PullRow& r : pull) csv << r.tol << "," << Fmt("%.12g", r.force_N) << "," << r.error << "," << r.seconds << "," << r.iterations << "\n";
   }
-  const double ref_ratio = reference->ratio_tight;
+  // The reference run's copy in st.runs holds its tight ratio (the sweep's own copy does not).
+  const Run* reference_run = reference;
+  for (const Run& r : st.runs)
+    if (r.knob == "grad_tol" && r.value == reference->value) reference_run = &r;
+  const double ref_ratio = reference_run->ratio_tight;
   {
     Plot p;
     p.title = o.scene + ": design accuracy against time per BESO iteration";
@@ -409,7 +413,7 @@ int RunStudy(const StudyOptions& o) {
     p.log_x = p.log_y = true;
     PlotSeries tol{"Newton tolerance sweep", {}, true}, other{"variants and resolutions", {}, false};
     for (const Run& r : st.runs) {
-      if (&r == reference || !std::isfinite(r.ratio_tight)) continue;
+      if (&r == reference_run || !std::isfinite(r.ratio_tight)) continue;
       const double err = std::max(1e-5, std::abs(r.ratio_tight - ref_ratio) / ref_ratio);
       (r.knob == "grad_tol" ? tol : other).points.emplace_back(r.per_iteration_s, err);
     }

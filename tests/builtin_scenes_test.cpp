@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -220,6 +221,21 @@ TEST(BuiltinScenes, TheSceneCacheGivesTheSameSceneAndIgnoresADamagedEntry) {
   ASSERT_TRUE(rebuilt.ok());
   expect_same(*built, *rebuilt);
   EXPECT_TRUE(LoadCachedScene("knee_extension", BodyMeasurements()).has_value());
+  // Entries of older builds: beyond six per scene, the least recently used go when another is stored.
+  const std::filesystem::path scenes = dir / "scenes";
+  for (int k = 0; k < 7; ++k) {
+    const std::filesystem::path old = scenes / ("knee_extension-old" + std::to_string(k));
+    std::filesystem::create_directories(old);
+    std::filesystem::last_write_time(old, std::filesystem::file_time_type::clock::now() - std::chrono::hours(100 - k));
+  }
+  ASSERT_TRUE(StoreCachedScene("knee_extension", taller, *built).ok());
+  int entries = 0;
+  for (const auto& e : std::filesystem::directory_iterator(scenes)) entries += e.path().filename().string().rfind("knee_extension-", 0) == 0;
+  EXPECT_EQ(entries, 6);
+  for (int k = 0; k < 3; ++k) EXPECT_FALSE(std::filesystem::exists(scenes / ("knee_extension-old" + std::to_string(k)))) << k;
+  EXPECT_TRUE(std::filesystem::exists(scenes / "knee_extension-old6"));
+  EXPECT_TRUE(LoadCachedScene("knee_extension", BodyMeasurements()).has_value());
+  EXPECT_TRUE(LoadCachedScene("knee_extension", taller).has_value());
   // Off.
   setenv("KGD_CACHE_DIR", "off", 1);
   EXPECT_EQ(SceneCacheDir(), "");

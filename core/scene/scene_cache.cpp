@@ -3,12 +3,14 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <utility>
 #include <vector>
 
 #include "core/scene/scene_file.h"
@@ -20,6 +22,9 @@ namespace {
 constexpr uint64_t kFnvOffset = 1469598103934665603ull, kFnvPrime = 1099511628211ull;
 // Bump when the exported scene format or what a built-in scene holds changes.
 constexpr int kCacheFormat = 1;
+// Entries kept per scene name (measurements, program builds); the least recently used go first. A
+// scene takes 8-15 MB.
+constexpr size_t kEntriesPerScene = 6;
 
 uint64_t Fnv(const void* data, size_t n, uint64_t h = kFnvOffset) {
   const auto* p = static_cast<const unsigned char*>(data);
@@ -58,6 +63,21 @@ fs::path EntryDir(const std::string& name, const BodyMeasurements& m) {
   return fs::path(dir) / "scenes" / (name + "-" + Hex(key));
 }
 
+// Removes the least recently used entries of scene `name` beyond kEntriesPerScene (a rebuilt program
+// leaves its predecessor's entries behind).
+void PruneEntries(const fs::path& scenes, const std::string& name) {
+  std::error_code ec;
+  std::vector<std::pair<fs::file_time_type, fs::path>> entries;
+  for (const fs::directory_entry& e : fs::directory_iterator(scenes, ec)) {
+    const std::string file = e.path().filename().string();
+    if (!e.is_directory() || file.rfind(name + "-", 0) != 0 || file.find(".tmp") != std::string::npos) continue;
+    entries.emplace_back(fs::last_write_time(e.path(), ec), e.path());
+  }
+  if (entries.size() <= kEntriesPerScene) return;
+  std::sort(entries.begin(), entries.end());
+  for (size_t i = 0; i + kEntriesPerScene < entries.size(); ++i) fs::remove_all(entries[i].second, ec);
+}
+
 }  // namespace
 
 std::string SceneCacheDir() {
@@ -80,6 +100,8 @@ std::optional<SceneSpec> LoadCachedScene(const std::string& name, const BodyMeas
   if (files == 0) return std::nullopt;
   Result<SceneSpec> s = LoadScene((dir / "scene.json").string());
   if (!s.ok()) return std::nullopt;
+  std::error_code ec;
+  fs::last_write_time(dir, fs::file_time_type::clock::now(), ec);  // recently used
   return std::move(s).value();
 }
 
@@ -109,10 +131,8 @@ Status StoreCachedScene(const std::string& name, const BodyMeasurements& measure
   }
   fs::remove_all(dir, ec);  // a damaged entry
   fs::rename(tmp, dir, ec);
-  if (ec) {  // another process stored it first
-    fs::remove_all(tmp, ec);
-    return Status::Ok();
-  }
+  if (ec) fs::remove_all(tmp, ec);  // another process stored it first
+  PruneEntries(dir.parent_path(), name);
   return Status::Ok();
 }
 

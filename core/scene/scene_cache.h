@@ -8,7 +8,8 @@
 // written again. Loading a cached scene gives the same scene bit for bit (builtin_scenes_test).
 //
 // The folder: $KGD_CACHE_DIR, else $XDG_CACHE_HOME/kgd, else $HOME/.cache/kgd; KGD_CACHE_DIR=off turns
-// the cache off. A cache that cannot be written is skipped silently: it only saves time.
+// the cache off. A cache that cannot be written is skipped silently: it only saves time. Each scene
+// name keeps its six most recently used entries (other measurements, other builds of the program).
 #pragma once
 
 #include <optional>

@@ -3,6 +3,7 @@
 // output holds a NaN or an infinity; nothing crashes or hangs; no triangle ends inverted; a re-run is
 // bit-identical. Fast cases run in `make test`; the long ones (label `stability-long`) in `make stability`.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <cmath>
 #include <filesystem>
@@ -294,8 +295,10 @@ TEST(StabilityLong, AHundredThousandVertexGarment) {
   }
   ASSERT_GT(s.garment.vertices.rows(), 100000);
   const SimulationResult r = ExpectStableEquilibrium(s);
-  std::printf("100k garment: %ld vertices, %d Newton iterations, %.2f s\n", static_cast<long>(r.positions.rows()), r.solve.iterations,
-              r.solve.seconds);
+  struct rusage usage {};
+  getrusage(RUSAGE_SELF, &usage);
+  std::printf("100k garment: %ld vertices, %d Newton iterations, %.2f s, peak memory %.0f MB\n", static_cast<long>(r.positions.rows()),
+              r.solve.iterations, r.solve.seconds, usage.ru_maxrss / 1024.0);
 }
 
 // Long: the knee at 160 degrees converges given 1,000 Newton iterations (about 800 taken).
