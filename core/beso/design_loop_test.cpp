@@ -4,6 +4,7 @@
 #include "core/scene/builtin_scenes.h"
 
 #include <cmath>
+#include <limits>
 
 #include <gtest/gtest.h>
 
@@ -190,6 +191,31 @@ TEST(DesignLoop, AMotionlessSceneStopsAfterIterationZero) {
   ASSERT_EQ(run->size(), 1u);
   EXPECT_LE(run->front().reinforced_energy_J, kNothingToResist_J);
   EXPECT_EQ(BesoEndOf(*run, s, 1.0), BesoEnd::kNothingToResist);
+}
+
+// Frames are an evaluation's, not a design's: the design loop neither reads nor simulates the motion's
+// frames (here frames no simulation could use), and its history is the same as without them.
+TEST(DesignLoop, ADesignNeverReadsTheMotionsFrames) {
+  Result<SceneSpec> plain = PullTestScene("all_cloth");
+  ASSERT_TRUE(plain.ok()) << plain.message();
+  SceneSpec with_frames = *plain;
+  BodyMotion motion;
+  motion.faces = Faces(1, 3);
+  motion.faces << 0, 1, 2;
+  motion.rest = Positions::Zero(3, 3);
+  motion.deformed = Positions::Zero(3, 3);
+  motion.frames.assign(3, Positions::Constant(3, 3, std::numeric_limits<double>::quiet_NaN()));
+  with_frames.motion = motion;
+  const BesoSettings s = PullTestSettings(4);
+  const Result<std::vector<BesoIteration>> a = RunBeso(*plain, s), b = RunBeso(with_frames, s);
+  ASSERT_TRUE(a.ok()) << a.message();
+  ASSERT_TRUE(b.ok()) << b.message();
+  ASSERT_EQ(a->size(), b->size());
+  for (size_t k = 0; k < a->size(); ++k) {
+    EXPECT_EQ((*a)[k].design, (*b)[k].design) << "iteration " << k;
+    EXPECT_EQ((*a)[k].energy_J, (*b)[k].energy_J) << "iteration " << k;
+    EXPECT_EQ((*a)[k].body_field_query_s, 0.0);
+  }
 }
 
 TEST(DesignLoop, BadSettingsAreRefused) {
