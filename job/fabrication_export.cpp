@@ -19,6 +19,32 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// Times the export's stages and announces each as it starts (ExportOptions::progress).
+class Stages {
+ public:
+  explicit Stages(const ExportOptions& o) : progress_(o.progress) {}
+  void Begin(const std::string& name, double fraction) {
+    End();
+    if (progress_) progress_(name, fraction);
+    name_ = name;
+    start_ = std::chrono::steady_clock::now();
+  }
+  std::vector<std::pair<std::string, double>> Finish() {
+    End();
+    return std::move(seconds_);
+  }
+
+ private:
+  void End() {
+    if (!name_.empty()) seconds_.push_back({name_, std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count()});
+    name_.clear();
+  }
+  std::function<void(const std::string&, double)> progress_;
+  std::string name_;
+  std::chrono::steady_clock::time_point start_;
+  std::vector<std::pair<std::string, double>> seconds_;
+};
+
 Status CheckOptions(const ExportOptions& o) {
   const std::set<std::string> known = {"svg", "dxf", "png"};
   if (o.formats.empty()) return Status::Error("export: no format asked for (svg, dxf, png)");
@@ -31,7 +57,7 @@ Status CheckOptions(const ExportOptions& o) {
 
 Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& strain, double full_density, const std::string& label,
                                        const std::string& out_dir, const ExportOptions& o, ExportReport r,
-                                       std::chrono::steady_clock::time_point start);
+                                       std::chrono::steady_clock::time_point start, Stages& stages);
 
 }  // namespace
 
@@ -39,6 +65,8 @@ Result<ExportReport> ExportScene(const SceneSpec& scene, const std::string& out_
   const auto start = std::chrono::steady_clock::now();
   KGD_RETURN_IF_ERROR(CheckOptions(o));
   if (scene.design.size() != static_cast<size_t>(scene.garment.faces.rows())) return Status::Error("export: scene '" + scene.name + "' has no design");
+  Stages stages(o);
+  stages.Begin("simulating the scene's design and the fully reinforced garment", 0);
   // Its density ratio is against the same garment fully reinforced.
   SceneSpec full = scene;
   full.design.assign(scene.garment.faces.rows(), 1);
@@ -51,12 +79,14 @@ Result<ExportReport> ExportScene(const SceneSpec& scene, const std::string& out_
   r.iteration = -1;
   r.area_fraction = d->reinforced_area_m2 / d->garment_area_m2;
   r.density_ratio = f->reinforced_density_J_per_m2 > 0 ? d->reinforced_density_J_per_m2 / f->reinforced_density_J_per_m2 : 0;
-  return ExportSceneDesign(scene, d->face_density_Pa, f->reinforced_density_J_per_m2, scene.name, out_dir, o, std::move(r), start);
+  return ExportSceneDesign(scene, d->face_density_Pa, f->reinforced_density_J_per_m2, scene.name, out_dir, o, std::move(r), start, stages);
 }
 
 Result<ExportReport> ExportDesign(const std::string& path, const std::string& out_dir, const ExportOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   KGD_RETURN_IF_ERROR(CheckOptions(o));
+  Stages stages(o);
+  stages.Begin("reading the design file", 0);
 
   Result<DesignFile> metrics = ReadDesignFile(path, {.arrays = false});
   if (!metrics.ok()) return metrics.status();
@@ -80,6 +110,7 @@ Result<ExportReport> ExportDesign(const std::string& path, const std::string& ou
   bool any = false;
   for (uint8_t d : it.design) any |= d != 0;
   if (!any) return Status::Error(path + ": iteration " + std::to_string(k) + " has no reinforced face: nothing to cut");
+  stages.Begin("building the scene", 0.05);
   Result<SceneSpec> scene = SceneOfDesignFile(path, h);
   if (!scene.ok()) return scene.status();
   scene->design = it.design;
@@ -91,7 +122,7 @@ Result<ExportReport> ExportDesign(const std::string& path, const std::string& ou
   // The cleaned design differs little from the stored one: its solve starts from the stored equilibrium.
   scene->initial = it.positions;
   return ExportSceneDesign(std::move(scene).value(), it.energy_density_Pa, metrics->iterations[0].reinforced_density_J_per_m2,
-                           h.scene + ", iteration " + std::to_string(k), out_dir, o, std::move(r), start);
+                           h.scene + ", iteration " + std::to_string(k), out_dir, o, std::move(r), start, stages);
 }
 
 namespace {
@@ -99,16 +130,20 @@ namespace {
 using Files = std::vector<std::pair<std::string, std::string>>;  // name, contents
 
 // The pattern, the patches of r->cleaned.design and the sheets' files (report.json aside).
-Status CutFiles(const TriMesh& garment, const Eigen::VectorXd& strain, const std::vector<uint8_t>& include, const std::string& label,
-                const ExportOptions& o, ExportReport* r, Files* files) {
+Status CutFiles(const TriMesh& garment, const std::vector<std::vector<int>>& seams, const Eigen::VectorXd& strain, const std::vector<uint8_t>& include,
+                const std::string& label, const ExportOptions& o, ExportReport* r, Files* files, Stages& stages) {
+  stages.Begin("cutting and flattening the pattern", 0.5);
   PatternOptions po;
   po.strain = strain;
+  for (const std::vector<int>& s : seams) po.seams.push_back({s});
   Result<Pattern> pattern = CutPattern(garment, po);
   if (!pattern.ok()) return pattern.status().WithContext("export: " + label + ": ");
   r->pattern = std::move(pattern).value();
+  stages.Begin("outlining the patches", 0.75);
   const double min_area = o.cleaning.min_area_m2 > 0 ? o.cleaning.min_area_m2 : 4 * o.cleaning.min_feature_m * o.cleaning.min_feature_m;
   r->patches = ReinforcementPatches(r->pattern, r->cleaned.design, include, min_area);
   r->seam_lengths = SeamLengths(r->pattern);
+  stages.Begin("nesting and drawing the sheets", 0.85);
   SheetOptions so = o.sheet;
   if (so.label.empty()) so.label = label;
   const Sheet pieces = PatternSheet(r->pattern, r->patches, so);
@@ -170,7 +205,7 @@ namespace {
 
 Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& strain, double full_density, const std::string& label,
                                        const std::string& out_dir, const ExportOptions& o, ExportReport r,
-                                       std::chrono::steady_clock::time_point start) {
+                                       std::chrono::steady_clock::time_point start, Stages& stages) {
   const int nf = static_cast<int>(scene.garment.faces.rows());
   const TriMesh& garment = scene.garment;
   const Eigen::VectorXd rest_area = FaceAreas(garment.vertices, garment.faces);
@@ -185,9 +220,11 @@ Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& s
       if (clamped[garment.faces(f, 0)] && clamped[garment.faces(f, 1)] && clamped[garment.faces(f, 2)]) include[f] = 0, keep[f] = 1;
   }
   KGD_RETURN_IF_ERROR(CheckReinforced(scene.design, include, label));
+  stages.Begin("cleaning the design for manufacture", 0.1);
   r.cleaned = CleanDesign(garment, scene.design, o.cleaning, keep);
 
   // The cleaned design, simulated as the design loop does.
+  stages.Begin("simulating the cleaned design", 0.2);
   SceneSpec cleaned = scene;
   cleaned.design = r.cleaned.design;
   Result<SimulationResult> sim = SimulateScene(cleaned);
@@ -197,10 +234,13 @@ Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& s
   r.cleaned_solve_status = ToString(sim->solve.status);
 
   Files files;
-  KGD_RETURN_IF_ERROR(CutFiles(garment, strain, include, label, o, &r, &files));
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  KGD_RETURN_IF_ERROR(CutFiles(garment, scene.seams, strain, include, label, o, &r, &files, stages));
+  stages.Begin("writing the files", 0.95);
   for (const auto& [name, contents] : files) r.files.push_back((fs::path(out_dir) / name).string());
   r.files.push_back((fs::path(out_dir) / "report.json").string());
+  // The report's own timing ends where its writing starts.
+  r.stage_seconds = stages.Finish();
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   files.push_back({"report.json", ExportReportJson(r)});
   KGD_RETURN_IF_ERROR(WriteExportFiles(out_dir, files));
   return r;
@@ -219,16 +259,19 @@ Result<ExportFiles> ExportGeometry(const DesignFileHeader& h, const BesoIteratio
   KGD_RETURN_IF_ERROR(CheckReinforced(it.design, include, label));
   ExportFiles out;
   ExportReport& r = out.report;
+  Stages stages(o);
   r.design_file = h.scene;
   r.iteration = it.iteration;
   r.area_fraction = it.area_fraction;
   r.density_ratio = it.density_ratio;
+  stages.Begin("cleaning the design for manufacture", 0);
   r.cleaned = CleanDesign(h.garment, it.design, o.cleaning, keep);
   double area = 0;
   for (int f = 0; f < nf; ++f) area += r.cleaned.design[f] ? h.rest_area_m2[f] : 0;
   r.cleaned_area_fraction = area / h.rest_area_m2.sum();
   r.cleaned_solve_status = "not simulated";
-  KGD_RETURN_IF_ERROR(CutFiles(h.garment, it.energy_density_Pa, include, label, o, &r, &out.files));
+  KGD_RETURN_IF_ERROR(CutFiles(h.garment, {}, it.energy_density_Pa, include, label, o, &r, &out.files, stages));
+  r.stage_seconds = stages.Finish();
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const auto& [name, contents] : out.files) r.files.push_back(name);
   r.files.push_back("report.json");
@@ -277,6 +320,8 @@ std::string ExportReportJson(const ExportReport& r) {
   j["sheet_usage"] = r.sheet_usage;
   j["files"] = r.files;
   j["seconds"] = r.seconds;
+  j["stage_seconds"] = nlohmann::ordered_json::object();
+  for (const auto& [stage, seconds] : r.stage_seconds) j["stage_seconds"][stage] = seconds;
   return j.dump(2) + "\n";
 }
 

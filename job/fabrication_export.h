@@ -4,6 +4,7 @@
 // again, so the report gives its density ratio beside the stored one.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,9 @@ struct ExportOptions {
   CleaningOptions cleaning;
   SheetOptions sheet;
   std::vector<std::string> formats = {"svg", "dxf", "png"};
+  // Called as each stage of the export starts ("cleaning the design", "cutting the pattern", ...), with
+  // the fraction of the export's usual time done before it: a long export's progress.
+  std::function<void(const std::string& stage, double fraction)> progress;
 };
 
 struct ExportReport {
@@ -36,9 +40,11 @@ struct ExportReport {
   std::vector<SeamSides> seam_lengths;
   std::vector<std::string> files;     // written, in order
   double seconds = 0;
+  std::vector<std::pair<std::string, double>> stage_seconds;  // where the time went, stage by stage
 };
 
-// Exports iteration `options.iteration` of `design_file` into `out_dir` (created if missing):
+// Exports iteration `options.iteration` of `design_file` into `out_dir` (created if missing), cut
+// along the scene's seams if it gives them (SceneSpec::seams):
 // pattern.svg / .dxf / .png (pieces), patches.svg / .dxf / .png (the vinyl sheet; PNG: previews) per `formats`, and
 // report.json. Every file is written under a temporary name and renamed only when all are written: a
 // failed export leaves no file behind. Errors name the file, the iteration or the format.
@@ -50,8 +56,9 @@ Result<ExportReport> ExportScene(const SceneSpec& scene, const std::string& out_
 
 // The files of an export from a design file's header and one iteration (with its arrays), in memory,
 // by geometry alone: no scene is built and nothing is simulated (the report's cleaned density ratio is
-// 0 and its solve status "not simulated"; no clamp strips are known). What the design service offers
-// for download, since it never simulates.
+// 0 and its solve status "not simulated"; no clamp strips are known, and kgd chooses the seams, since
+// the scene file's are not stored). What the design service offers for download, since it never
+// simulates.
 struct ExportFiles {
   std::vector<std::pair<std::string, std::string>> files;  // name (pattern.svg, ..., report.json), contents
   ExportReport report;

@@ -6,6 +6,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <algorithm>
+#include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
@@ -95,6 +97,33 @@ std::pair<double, double> Extent(const Polygon& p) {
   return {x1 - x0, y1 - y0};
 }
 
+double Perimeter(const Polygon& p) {
+  double l = 0;
+  for (size_t i = 0; i < p.size(); ++i) l += std::hypot(p[(i + 1) % p.size()].first - p[i].first, p[(i + 1) % p.size()].second - p[i].second);
+  return l;
+}
+
+bool Inside(const Polygon& p, std::pair<double, double> q) {
+  bool in = false;
+  for (size_t i = 0, j = p.size() - 1; i < p.size(); j = i++)
+    if ((p[i].second > q.second) != (p[j].second > q.second) &&
+        q.first < (p[j].first - p[i].first) * (q.second - p[i].second) / (p[j].second - p[i].second) + p[i].first)
+      in = !in;
+  return in;
+}
+
+bool EdgesCross(const Polygon& a, const Polygon& b) {
+  auto orient = [](std::pair<double, double> p, std::pair<double, double> q, std::pair<double, double> r) {
+    return (q.first - p.first) * (r.second - p.second) - (q.second - p.second) * (r.first - p.first);
+  };
+  for (size_t i = 0; i < a.size(); ++i)
+    for (size_t j = 0; j < b.size(); ++j) {
+      const auto a0 = a[i], a1 = a[(i + 1) % a.size()], b0 = b[j], b1 = b[(j + 1) % b.size()];
+      if (orient(a0, a1, b0) * orient(a0, a1, b1) < 0 && orient(b0, b1, a0) * orient(b0, b1, a1) < 0) return true;
+    }
+  return false;
+}
+
 fs::path TempDir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("kgd_export_test_" + name);
   fs::remove_all(d);
@@ -174,43 +203,55 @@ TEST(Export, ASleeveDesignIsCutIntoPiecesWithPatchesNestedMirroredAndPlaced) {
     const double rest = p["rest_area_m2"], flat = p["flat_area_m2"];
     EXPECT_NEAR(flat, rest, p["area_distortion_mean"].get<double>() * rest + 1e-12);
     EXPECT_LE(p["area_distortion_mean"].get<double>(), 0.02);
+    EXPECT_LE(p["area_distortion_max"].get<double>(), 0.05);
     EXPECT_LE(p["angle_distortion_mean_deg"].get<double>(), 2.0);
   }
   for (const auto& s : report["seams"]) {
-    std::printf("  seam %d: sides %.2f and %.2f mm\n", s["seam"].get<int>(), s["side_a_mm"].get<double>(), s["side_b_mm"].get<double>());
-    EXPECT_NEAR(s["side_a_mm"].get<double>(), s["side_b_mm"].get<double>(), 2.0) << "the two sides sewn together";
+    std::printf("  seam %d: sides %.3f and %.3f mm\n", s["seam"].get<int>(), s["side_a_mm"].get<double>(), s["side_b_mm"].get<double>());
+    EXPECT_NEAR(s["side_a_mm"].get<double>(), s["side_b_mm"].get<double>(), 0.5) << "the two sides sewn together";
   }
+  std::printf("  stages:");
+  for (const auto& [stage, seconds] : report["stage_seconds"].items()) std::printf(" %s %.2f s;", stage.c_str(), seconds.get<double>());
+  std::printf("\n");
 
-  // Nested patches: inside the sheet and apart (bounding boxes, which is how they are nested).
+  // Nested patches: every outline on the sheet, and no two outlines overlap (no edges cross and
+  // neither holds the other); a hole lies inside its own outline.
   const std::string svg = Read(dir / "cut/patches.svg");
   const std::vector<Polygon> patches = SvgPolygons(svg, "1");
   ASSERT_GE(patches.size(), 1u);
-  std::vector<std::array<double, 4>> boxes;
+  std::vector<const Polygon*> outlines;
   for (const Polygon& p : patches) {
-    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
-    for (const auto& [x, y] : p) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
-    EXPECT_GE(x0, 0);
-    EXPECT_LE(x1, 305);
-    EXPECT_GE(y0, 0);
-    boxes.push_back({x0, x1, y0, y1});
-  }
-  // Holes sit inside their outline's box; outlines do not overlap each other's.
-  size_t overlaps = 0;
-  for (size_t i = 0; i < boxes.size(); ++i)
-    for (size_t j = i + 1; j < boxes.size(); ++j) {
-      const bool apart = boxes[i][1] <= boxes[j][0] || boxes[j][1] <= boxes[i][0] || boxes[i][3] <= boxes[j][2] || boxes[j][3] <= boxes[i][2];
-      const bool inside = (boxes[j][0] >= boxes[i][0] && boxes[j][1] <= boxes[i][1] && boxes[j][2] >= boxes[i][2] && boxes[j][3] <= boxes[i][3]) ||
-                          (boxes[i][0] >= boxes[j][0] && boxes[i][1] <= boxes[j][1] && boxes[i][2] >= boxes[j][2] && boxes[i][3] <= boxes[j][3]);
-      overlaps += !apart && !inside;
+    bool hole = false;
+    for (const Polygon& q : patches) hole |= &q != &p && std::abs(SignedArea(q)) > std::abs(SignedArea(p)) && Inside(q, p[0]);
+    if (!hole) outlines.push_back(&p);
+    for (const auto& [x, y] : p) {
+      EXPECT_GE(x, 0);
+      EXPECT_LE(x, 305);
+      EXPECT_GE(y, 0);
     }
+  }
+  ASSERT_EQ(outlines.size(), report["patches"].size());
+  size_t overlaps = 0;
+  for (size_t i = 0; i < outlines.size(); ++i)
+    for (size_t j = i + 1; j < outlines.size(); ++j)
+      overlaps += EdgesCross(*outlines[i], *outlines[j]) || Inside(*outlines[i], (*outlines[j])[0]) || Inside(*outlines[j], (*outlines[i])[0]);
   EXPECT_EQ(overlaps, 0u);
 
-  // Placement guides on the pieces have the patches' areas (the mirror aside).
+  // Placement guides on the pieces are the patches, moved: the same areas and perimeters, one by one
+  // (to the SVG's printed precision).
   const std::vector<Polygon> guides = SvgPolygons(Read(dir / "cut/pattern.svg"), "8");
-  double guide_area = 0, patch_area = 0;
-  for (const Polygon& p : guides) guide_area += SignedArea(p);
+  ASSERT_EQ(guides.size(), patches.size());
+  std::vector<std::pair<double, double>> guide_shapes, patch_shapes;
+  for (const Polygon& p : guides) guide_shapes.push_back({std::abs(SignedArea(p)), Perimeter(p)});
+  for (const Polygon& p : patches) patch_shapes.push_back({std::abs(SignedArea(p)), Perimeter(p)});
+  std::sort(guide_shapes.begin(), guide_shapes.end());
+  std::sort(patch_shapes.begin(), patch_shapes.end());
+  double patch_area = 0;
   for (const Polygon& p : patches) patch_area += SignedArea(p);
-  EXPECT_NEAR(std::abs(guide_area), std::abs(patch_area), 1e-3 * std::abs(patch_area));
+  for (size_t i = 0; i < guides.size(); ++i) {
+    EXPECT_NEAR(guide_shapes[i].first, patch_shapes[i].first, 1e-4 * patch_shapes[i].first) << "guide " << i;
+    EXPECT_NEAR(guide_shapes[i].second, patch_shapes[i].second, 1e-4 * patch_shapes[i].second) << "guide " << i;
+  }
 
   // --no-mirror turns the patches over: the signed areas change sign.
   const auto plain = Kgd("export " + file + " --out " + (dir / "plain").string() + " --no-mirror");
@@ -220,6 +261,60 @@ TEST(Export, ASleeveDesignIsCutIntoPiecesWithPatchesNestedMirroredAndPlaced) {
   double unmirrored_area = 0;
   for (const Polygon& p : unmirrored) unmirrored_area += SignedArea(p);
   EXPECT_LT(unmirrored_area * patch_area, 0);
+}
+
+// A seam given in the scene file: the flat sample cut across its middle gives two 100 x 70 mm pieces
+// whose seam sides are the sample's width, and the Line's band split into two patches at the seam; a
+// seam that is not a path along edges is refused by the scene's name and writes nothing.
+TEST(Export, SeamsGivenInTheSceneFileCutThePatternThere) {
+  const fs::path dir = TempDir("seams");
+  ASSERT_EQ(Kgd("scene export pull_test_line " + (dir / "scene").string()).exit_code, 0);
+  // The sample's rest mesh: the vertices across its middle (z = 70 mm), in order along x.
+  std::vector<std::pair<double, int>> across;
+  {
+    std::ifstream obj(dir / "scene/garment_rest.obj");
+    int v = 0;
+    for (std::string line; std::getline(obj, line);) {
+      if (line.rfind("v ", 0) != 0) continue;
+      std::istringstream in(line.substr(2));
+      double x, y, z;
+      in >> x >> y >> z;
+      if (std::abs(z - 0.07) < 1e-9) across.push_back({x, v});
+      ++v;
+    }
+  }
+  std::sort(across.begin(), across.end());
+  ASSERT_EQ(across.size(), 41u) << "a 2.5 mm grid across 100 mm";
+  nlohmann::json scene = nlohmann::json::parse(Read(dir / "scene/scene.json"));
+  std::vector<int> seam;
+  for (const auto& [x, v] : across) seam.push_back(v);
+  scene["garment"]["seams"] = {seam};
+  std::ofstream(dir / "scene/seamed.json") << scene.dump(2);
+  const auto run = Kgd("export " + (dir / "scene/seamed.json").string() + " --out " + (dir / "cut").string() + " --json");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const nlohmann::json report = nlohmann::json::parse(run.output);
+  ASSERT_EQ(report["pieces"].size(), 2u);
+  for (const auto& p : report["pieces"]) {
+    EXPECT_NEAR(p["rest_area_m2"].get<double>(), 0.1 * 0.07, 1e-12);
+    EXPECT_NEAR(p["flat_area_m2"].get<double>(), 0.1 * 0.07, 1e-9);
+    EXPECT_LT(p["area_distortion_max"].get<double>(), 1e-6);
+  }
+  ASSERT_EQ(report["seams"].size(), 1u);
+  EXPECT_NEAR(report["seams"][0]["side_a_mm"].get<double>(), 100, 1e-3);
+  EXPECT_NEAR(report["seams"][0]["side_b_mm"].get<double>(), 100, 1e-3);
+  ASSERT_EQ(report["patches"].size(), 2u) << "the band is split at the seam";
+  for (const auto& p : report["patches"]) EXPECT_NEAR(p["area_m2"].get<double>(), 0.04 * 0.05, 1e-9);
+
+  // A seam that jumps across the sample.
+  scene["garment"]["seams"] = {{seam.front(), seam.back()}};
+  std::ofstream(dir / "scene/bad.json") << scene.dump(2);
+  const auto bad = Kgd("export " + (dir / "scene/bad.json").string() + " --out " + (dir / "bad").string());
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("bad.json: garment.seams: seam 1 is not a path along edges: vertices " + std::to_string(seam.front()) + " and " +
+                            std::to_string(seam.back())),
+            std::string::npos)
+      << bad.output;
+  EXPECT_FALSE(fs::exists(dir / "bad"));
 }
 
 TEST(Export, BadInputIsRefusedByNameAndLeavesNoFile) {

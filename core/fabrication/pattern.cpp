@@ -16,11 +16,13 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <memory>
 #include <optional>
 #include <array>
 #include <queue>
 #include <set>
 
+#include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <Eigen/SparseCholesky>
 
@@ -80,72 +82,252 @@ std::optional<FlatPositions> InPlane(const Positions& x) {
   return uv;
 }
 
-// As-rigid-as-possible refinement (Liu et al. 2008, local/global) with a free boundary and free scale:
-// every triangle's flat image is as close to a rotation of its rest shape as the mesh allows.
-void RefineArap(const Positions& x, const Faces& faces, FlatPositions* uv, int iterations) {
-  const int nv = static_cast<int>(x.rows()), nf = static_cast<int>(faces.rows());
-  // Each triangle in a 2D frame of its own (an isometric copy), and its cotangent weights.
-  std::vector<std::array<Eigen::Vector2d, 3>> local(nf);
-  std::vector<std::array<double, 3>> cot(nf);  // cot[k]: the angle opposite edge (k, k+1)
-  std::vector<Eigen::Triplet<double>> triplets;
-  for (int f = 0; f < nf; ++f) {
-    const Eigen::Vector3d a = x.row(faces(f, 0)), b = x.row(faces(f, 1)), c = x.row(faces(f, 2));
-    const Eigen::Vector3d e1 = (b - a).normalized(), n = (b - a).cross(c - a);
-    const Eigen::Vector3d e2 = n.cross(b - a).normalized();
-    local[f] = {Eigen::Vector2d(0, 0), Eigen::Vector2d((b - a).norm(), 0), Eigen::Vector2d((c - a).dot(e1), (c - a).dot(e2))};
-    for (int k = 0; k < 3; ++k) {
-      const Eigen::Vector2d& p = local[f][(k + 2) % 3];
-      const Eigen::Vector2d u = local[f][k] - p, v = local[f][(k + 1) % 3] - p;
-      const double cross = u.x() * v.y() - u.y() * v.x();
-      cot[f][k] = cross != 0 ? 0.5 * u.dot(v) / std::abs(cross) : 0;
-      const int i = faces(f, k), j = faces(f, (k + 1) % 3);
-      triplets.push_back({i, i, cot[f][k]});
-      triplets.push_back({j, j, cot[f][k]});
-      triplets.push_back({i, j, -cot[f][k]});
-      triplets.push_back({j, i, -cot[f][k]});
-    }
+// One edge of a piece's outline sewn to another's: the flat edge (a0 -> a1) of piece `piece_a` and
+// (b0 -> b1) of piece `piece_b` (possibly the same piece) are the same garment edge.
+struct SewnEdges {
+  int piece_a, a0, a1;
+  int piece_b, b0, b1;
+};
+
+// The target a triangle's flat map is pulled towards, from the map's singular values s1 >= s2: the
+// area-preserving stretch diag(t, 1/t) nearest to them, held towards a rotation by `rigidity`
+// (minimizes (s1 - t)^2 + (s2 - 1/t)^2 + rigidity ((t - 1)^2 + (1/t - 1)^2) over t >= 1). Fabric
+// sewn back onto the body takes up shear far more readily than a change of area, so the refinement
+// keeps areas first and angles second.
+double AreaPreservingStretch(double s1, double s2, double rigidity, double t) {
+  t = std::max(t, 1.0);
+  for (int i = 0; i < 8; ++i) {
+    const double inv = 1 / t, inv2 = inv * inv, inv3 = inv2 * inv, inv4 = inv2 * inv2;
+    const double g1 = -2 * (s1 - t) + 2 * (s2 * inv2 - inv3) + 2 * rigidity * (t - 1) - 2 * rigidity * (inv3 - inv2);
+    const double g2 = 2 + 2 * (-2 * s2 * inv3 + 3 * inv4) + 2 * rigidity - 2 * rigidity * (-3 * inv4 + 2 * inv3);
+    const double step = g2 > 0 ? g1 / g2 : g1;
+    t = std::clamp(t - step, 1.0, 1.0 + 4 * (std::abs(s1) + 1));
+    if (std::abs(step) < 1e-12) break;
   }
-  // Vertex 0 stays put (translation); rotation and scale are free.
-  triplets.push_back({0, 0, 1e8});
-  Eigen::SparseMatrix<double> laplacian(nv, nv);
-  laplacian.setFromTriplets(triplets.begin(), triplets.end());
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(laplacian);
-  if (solver.info() != Eigen::Success) return;
-  std::vector<Eigen::Matrix2d> rotation(nf);
-  for (int it = 0; it < iterations; ++it) {
-    for (int f = 0; f < nf; ++f) {
-      Eigen::Matrix2d s = Eigen::Matrix2d::Zero();
-      for (int k = 0; k < 3; ++k) {
-        const int i = faces(f, k), j = faces(f, (k + 1) % 3);
-        const Eigen::Vector2d du = uv->row(i) - uv->row(j);
-        s += cot[f][k] * du * (local[f][k] - local[f][(k + 1) % 3]).transpose();
-      }
-      Eigen::JacobiSVD<Eigen::Matrix2d> svd(s, Eigen::ComputeFullU | Eigen::ComputeFullV);
-      Eigen::Matrix2d r = svd.matrixU() * svd.matrixV().transpose();
-      if (r.determinant() < 0) {
-        Eigen::Matrix2d u = svd.matrixU();
-        u.col(1) *= -1;
-        r = u * svd.matrixV().transpose();
-      }
-      rotation[f] = r;
-    }
-    Eigen::MatrixX2d rhs = Eigen::MatrixX2d::Zero(nv, 2);
-    for (int f = 0; f < nf; ++f)
-      for (int k = 0; k < 3; ++k) {
-        const int i = faces(f, k), j = faces(f, (k + 1) % 3);
-        const Eigen::Vector2d r = cot[f][k] * rotation[f] * (local[f][k] - local[f][(k + 1) % 3]);
-        rhs.row(i) += r.transpose();
-        rhs.row(j) -= r.transpose();
-      }
-    rhs.row(0) += 1e8 * uv->row(0);
-    const Eigen::MatrixX2d next = solver.solve(rhs);
-    if (!next.allFinite()) return;
-    const double change = (next - Eigen::MatrixX2d(*uv)).cwiseAbs().maxCoeff();
-    *uv = next;
-    // Converged to a micrometre: far below what a cutter resolves.
-    if (change < 1e-6) break;
-  }
+  return t;
 }
+
+// Local/global refinement of several pieces at once (Liu et al. 2008, with the area-preserving local
+// step above), each with a free boundary and free scale, and every sewn pair of outline edges pulled to
+// a common length (the mean of the two), so that the two sides of a seam or dart sew together.
+class JointRefinement {
+ public:
+  JointRefinement(const std::vector<const Positions*>& rest, const std::vector<const Faces*>& faces, std::vector<SewnEdges> sewn)
+      : sewn_(std::move(sewn)) {
+    for (size_t p = 0; p < rest.size(); ++p) {
+      pieces_.push_back(std::make_unique<Piece>());
+      Prepare(*rest[p], *faces[p], p);
+    }
+  }
+
+  bool ok() const { return ok_; }
+
+  // Refines `uv` (one per piece) in place: local/global steps, accelerated by Anderson mixing of the
+  // last few steps (Peng et al. 2018), each mixed step kept only if it lowers the energy (otherwise the
+  // plain step, which always does, and the history restarts).
+  void Run(std::vector<FlatPositions*> uv, int iterations) {
+    offset_.assign(1, 0);
+    for (FlatPositions* f : uv) offset_.push_back(offset_.back() + 2 * f->rows());
+    Eigen::VectorXd x(offset_.back());
+    for (size_t p = 0; p < uv.size(); ++p) x.segment(offset_[p], 2 * uv[p]->rows()) = Eigen::Map<const Eigen::VectorXd>(uv[p]->data(), 2 * uv[p]->rows());
+    // FlatPositions is row-major: vertex v's (u, w) at 2v, 2v + 1.
+    double energy = LocalStep(x);
+    constexpr int kHistory = 6;
+    std::vector<Eigen::VectorXd> df, dg;
+    Eigen::VectorXd f_prev, g_prev;
+    for (int it = 0; it < iterations; ++it) {
+      const Eigen::VectorXd g = GlobalStep();
+      if (!g.allFinite()) break;
+      const Eigen::VectorXd f = g - x;
+      // Converged to a micrometre: far below what a cutter resolves (about 25 micrometres).
+      if (f.cwiseAbs().maxCoeff() < 1e-6) {
+        x = g;
+        break;
+      }
+      Eigen::VectorXd next = g;
+      if (f_prev.size()) {
+        df.push_back(f - f_prev), dg.push_back(g - g_prev);
+        if (static_cast<int>(df.size()) > kHistory) df.erase(df.begin()), dg.erase(dg.begin());
+        Eigen::MatrixXd mf(f.size(), df.size()), mg(g.size(), dg.size());
+        for (size_t k = 0; k < df.size(); ++k) mf.col(k) = df[k], mg.col(k) = dg[k];
+        const Eigen::VectorXd gamma = mf.colPivHouseholderQr().solve(f);
+        if (gamma.allFinite()) next = g - mg * gamma;
+      }
+      f_prev = f, g_prev = g;
+      double next_energy = LocalStep(next);
+      if (!(next_energy <= energy)) {
+        next = g;
+        next_energy = LocalStep(next);
+        df.clear(), dg.clear();
+      }
+      x = std::move(next);
+      energy = next_energy;
+    }
+    for (size_t p = 0; p < uv.size(); ++p) Eigen::Map<Eigen::VectorXd>(uv[p]->data(), 2 * uv[p]->rows()) = x.segment(offset_[p], 2 * uv[p]->rows());
+  }
+
+ private:
+  // Sewn edges are held to their common length about as stiffly as a few hundred triangles' worth of
+  // cloth: their sides then agree to a few micrometres per edge.
+  static constexpr double kSewnWeight = 200;
+  static constexpr double kPin = 1e8;  // vertex 0 of each piece stays put (translation)
+  // How strongly the local step holds angles against areas (see AreaPreservingStretch): on the built-in
+  // and MakeHuman sleeves, 0.1 keeps every face's area within 5 % and the mean angle change within 2
+  // degrees (0.15 lets a face at the elbow stretch 5.8 %).
+  static constexpr double kRigidity = 0.1;
+
+  struct Piece {
+    const Faces* faces = nullptr;
+    std::vector<std::array<Eigen::Vector2d, 3>> local;  // each rest triangle in a 2D frame of its own
+    std::vector<std::array<double, 3>> cot;             // half-cotangent of the angle opposite edge (k, k+1)
+    std::vector<Eigen::Matrix2d> rest_inverse;          // inverse of the rest edge matrix [e1 e2]
+    std::vector<Eigen::Matrix2d> target;
+    std::vector<double> area;                           // rest area (m^2)
+    std::vector<double> energy;                         // each triangle's share of the last local step's
+    std::vector<double> stretch;                        // the local step's last t, a warm start
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
+  };
+
+  void Prepare(const Positions& x, const Faces& faces, size_t p) {
+    Piece& piece = *pieces_[p];
+    piece.faces = &faces;
+    const int nv = static_cast<int>(x.rows()), nf = static_cast<int>(faces.rows());
+    piece.local.resize(nf);
+    piece.cot.resize(nf);
+    piece.rest_inverse.resize(nf);
+    piece.target.assign(nf, Eigen::Matrix2d::Identity());
+    piece.stretch.assign(nf, 1.0);
+    piece.area.resize(nf);
+    std::vector<Eigen::Triplet<double>> triplets;
+    auto edge = [&](int i, int j, double w) {
+      triplets.push_back({i, i, w});
+      triplets.push_back({j, j, w});
+      triplets.push_back({i, j, -w});
+      triplets.push_back({j, i, -w});
+    };
+    for (int f = 0; f < nf; ++f) {
+      const Eigen::Vector3d a = x.row(faces(f, 0)), b = x.row(faces(f, 1)), c = x.row(faces(f, 2));
+      const Eigen::Vector3d e1 = (b - a).normalized(), n = (b - a).cross(c - a);
+      const Eigen::Vector3d e2 = n.cross(b - a).normalized();
+      piece.local[f] = {Eigen::Vector2d(0, 0), Eigen::Vector2d((b - a).norm(), 0), Eigen::Vector2d((c - a).dot(e1), (c - a).dot(e2))};
+      Eigen::Matrix2d m;
+      m << piece.local[f][1] - piece.local[f][0], piece.local[f][2] - piece.local[f][0];
+      piece.area[f] = 0.5 * std::abs(m.determinant());
+      piece.rest_inverse[f] = std::abs(m.determinant()) > 0 ? Eigen::Matrix2d(m.inverse()) : Eigen::Matrix2d::Zero();
+      for (int k = 0; k < 3; ++k) {
+        const Eigen::Vector2d& q = piece.local[f][(k + 2) % 3];
+        const Eigen::Vector2d u = piece.local[f][k] - q, v = piece.local[f][(k + 1) % 3] - q;
+        const double cross = u.x() * v.y() - u.y() * v.x();
+        piece.cot[f][k] = cross != 0 ? 0.5 * u.dot(v) / std::abs(cross) : 0;
+        edge(faces(f, k), faces(f, (k + 1) % 3), piece.cot[f][k]);
+      }
+    }
+    for (const SewnEdges& e : sewn_) {
+      if (e.piece_a == static_cast<int>(p)) edge(e.a0, e.a1, kSewnWeight);
+      if (e.piece_b == static_cast<int>(p)) edge(e.b0, e.b1, kSewnWeight);
+    }
+    triplets.push_back({0, 0, kPin});
+    Eigen::SparseMatrix<double> laplacian(nv, nv);
+    laplacian.setFromTriplets(triplets.begin(), triplets.end());
+    piece.solver.compute(laplacian);
+    ok_ = ok_ && piece.solver.info() == Eigen::Success;
+  }
+
+  // The targets of every triangle (its flat map's nearest area-preserving stretch, in closed form for
+  // 2x2) and of every sewn pair (their common length along each one's direction), for the positions
+  // `x`; returns the energy at `x` with these targets. Keeps `x` for the global step.
+  double LocalStep(const Eigen::VectorXd& x) {
+    x_ = x;
+    double energy = 0;
+    for (size_t p = 0; p < pieces_.size(); ++p) {
+      Piece& piece = *pieces_[p];
+      const Faces& faces = *piece.faces;
+      auto at = [&](int v) { return Eigen::Vector2d(x[offset_[p] + 2 * v], x[offset_[p] + 2 * v + 1]); };
+      piece.energy.resize(faces.rows());
+#pragma omp parallel for schedule(static)
+      for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+        Eigen::Matrix2d d;
+        d << at(faces(f, 1)) - at(faces(f, 0)), at(faces(f, 2)) - at(faces(f, 0));
+        const Eigen::Matrix2d j = d * piece.rest_inverse[f];
+        // j = rot(phi) diag(s1, s2) rot(theta), s1 >= |s2| (s2 < 0: the triangle is flipped); its
+        // rotation r = rot(phi + theta) and j = r p with p symmetric, eigenvalues s1, s2. The target
+        // r (a + b p) has p's eigenvectors and eigenvalues t, 1/t: a + b s1 = t, a + b s2 = 1/t.
+        const double e = 0.5 * (j(0, 0) + j(1, 1)), fm = 0.5 * (j(0, 0) - j(1, 1));
+        const double g = 0.5 * (j(1, 0) + j(0, 1)), h = 0.5 * (j(1, 0) - j(0, 1));
+        const double q = std::sqrt(e * e + h * h), r = std::sqrt(fm * fm + g * g);
+        const double s1 = q + r, s2 = q - r;
+        const double t = piece.stretch[f] = AreaPreservingStretch(s1, s2, kRigidity, piece.stretch[f]);
+        Eigen::Matrix2d rotation = Eigen::Matrix2d::Identity();
+        if (q > 0) rotation << e / q, -h / q, h / q, e / q;
+        if (r > 1e-12 * q) {
+          const double b = (t - 1 / t) / (2 * r), a = t - b * s1;
+          piece.target[f] = a * rotation + b * j;
+        } else {
+          piece.target[f] = rotation;  // j is a rotation scaled alike in every direction
+        }
+        piece.energy[f] = piece.area[f] * ((s1 - t) * (s1 - t) + (s2 - 1 / t) * (s2 - 1 / t) + kRigidity * ((t - 1) * (t - 1) + (1 / t - 1) * (1 / t - 1)));
+      }
+      // Summed in order, so that the same input gives the same pattern on any number of threads.
+      for (double e : piece.energy) energy += e;
+    }
+    sewn_target_.resize(sewn_.size());
+    for (size_t i = 0; i < sewn_.size(); ++i) {
+      const SewnEdges& e = sewn_[i];
+      const Eigen::Vector2d da = Edge(x, e.piece_a, e.a0, e.a1), db = Edge(x, e.piece_b, e.b0, e.b1);
+      const double la = da.norm(), lb = db.norm(), common = 0.5 * (la + lb);
+      sewn_target_[i] = {la > 0 ? Eigen::Vector2d(common / la * da) : da, lb > 0 ? Eigen::Vector2d(common / lb * db) : db};
+      energy += kSewnWeight * 0.5 * (la - lb) * (la - lb);
+    }
+    return energy;
+  }
+
+  Eigen::Vector2d Edge(const Eigen::VectorXd& x, int p, int v0, int v1) const {
+    return Eigen::Vector2d(x[offset_[p] + 2 * v0] - x[offset_[p] + 2 * v1], x[offset_[p] + 2 * v0 + 1] - x[offset_[p] + 2 * v1 + 1]);
+  }
+
+  // The positions minimizing the energy for the last local step's targets, each piece's vertex 0 held.
+  Eigen::VectorXd GlobalStep() const {
+    std::vector<Eigen::MatrixX2d> rhs(pieces_.size());
+    const int n = static_cast<int>(pieces_.size());
+#pragma omp parallel for schedule(dynamic)
+    for (int p = 0; p < n; ++p) {
+      const Piece& piece = *pieces_[p];
+      const Faces& faces = *piece.faces;
+      rhs[p] = Eigen::MatrixX2d::Zero((offset_[p + 1] - offset_[p]) / 2, 2);
+      for (Eigen::Index f = 0; f < faces.rows(); ++f)
+        for (int k = 0; k < 3; ++k) {
+          const int i = faces(f, k), j = faces(f, (k + 1) % 3);
+          const Eigen::Vector2d r = piece.cot[f][k] * piece.target[f] * (piece.local[f][k] - piece.local[f][(k + 1) % 3]);
+          rhs[p].row(i) += r.transpose();
+          rhs[p].row(j) -= r.transpose();
+        }
+    }
+    for (size_t i = 0; i < sewn_.size(); ++i) {
+      const SewnEdges& e = sewn_[i];
+      const Eigen::Vector2d ta = kSewnWeight * sewn_target_[i].first, tb = kSewnWeight * sewn_target_[i].second;
+      rhs[e.piece_a].row(e.a0) += ta.transpose();
+      rhs[e.piece_a].row(e.a1) -= ta.transpose();
+      rhs[e.piece_b].row(e.b0) += tb.transpose();
+      rhs[e.piece_b].row(e.b1) -= tb.transpose();
+    }
+    Eigen::VectorXd next(x_.size());
+#pragma omp parallel for schedule(dynamic)
+    for (int p = 0; p < n; ++p) {
+      rhs[p](0, 0) += kPin * x_[offset_[p]];
+      rhs[p](0, 1) += kPin * x_[offset_[p] + 1];
+      const Eigen::MatrixX2d solved = pieces_[p]->solver.solve(rhs[p]);
+      for (Eigen::Index v = 0; v < solved.rows(); ++v) next[offset_[p] + 2 * v] = solved(v, 0), next[offset_[p] + 2 * v + 1] = solved(v, 1);
+    }
+    return next;
+  }
+
+  std::vector<SewnEdges> sewn_;
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> sewn_target_;
+  std::vector<std::unique_ptr<Piece>> pieces_;
+  std::vector<Eigen::Index> offset_;  // piece p's positions start at x[offset_[p]]
+  Eigen::VectorXd x_;                 // the last local step's positions
+  bool ok_ = true;
+};
 
 }  // namespace
 
@@ -190,19 +372,27 @@ Distortion MeasureDistortion(const Positions& x, const Faces& faces, const FlatP
   return d;
 }
 
-Result<FlatPositions> FlattenDisk(const Positions& x, const Faces& faces) {
+namespace {
+
+// A piece's flat start: its own plane, exactly, if it is planar (`planar` set); otherwise CGAL's least-
+// squares conformal map scaled to the rest area. Counter-clockwise faces stay counter-clockwise.
+Result<FlatPositions> InitialFlat(const Positions& x, const Faces& faces, bool* planar) {
   if (faces.rows() == 0) return Status::Error("flatten: the piece has no faces");
   if (EulerCharacteristic(faces) != 1 || BoundaryLoops(faces).size() != 1)
     return Status::Error("flatten: the piece is not a disk (Euler characteristic " + std::to_string(EulerCharacteristic(faces)) + ", " +
                          std::to_string(BoundaryLoops(faces).size()) + " boundary loops)");
-  // A flat piece is its own pattern, exactly.
-  if (std::optional<FlatPositions> plane = InPlane(x)) {
+  auto orient = [&](FlatPositions* uv) {
     double signed_area = 0;
     for (Eigen::Index f = 0; f < faces.rows(); ++f) {
-      const Eigen::Vector2d a = plane->row(faces(f, 0)), b = plane->row(faces(f, 1)), c = plane->row(faces(f, 2));
+      const Eigen::Vector2d a = uv->row(faces(f, 0)), b = uv->row(faces(f, 1)), c = uv->row(faces(f, 2));
       signed_area += (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
     }
-    if (signed_area < 0) plane->col(0) *= -1;
+    if (signed_area < 0) uv->col(0) *= -1;
+  };
+  *planar = false;
+  if (std::optional<FlatPositions> plane = InPlane(x)) {
+    orient(&*plane);
+    *planar = true;
     return *plane;
   }
   SurfaceMesh sm;
@@ -213,29 +403,62 @@ Result<FlatPositions> FlattenDisk(const Positions& x, const Faces& faces) {
       return Status::Error("flatten: face " + std::to_string(f) + " makes the piece non-manifold");
   const auto bhd = CGAL::Polygon_mesh_processing::longest_border(sm).first;
   auto uv = sm.add_property_map<SurfaceMesh::Vertex_index, Kernel::Point_2>("v:uv").first;
-  // Least-squares conformal maps (one linear solve) give the start; the as-rigid-as-possible refinement
-  // below then trades angles for areas, as fabric does.
   SMP::LSCM_parameterizer_3<SurfaceMesh> lscm;
   const SMP::Error_code err = SMP::parameterize(sm, lscm, bhd, uv);
   if (err != SMP::OK) return Status::Error(std::string("flatten: CGAL LSCM failed: ") + SMP::get_error_message(err));
   FlatPositions out(x.rows(), 2);
   for (Eigen::Index v = 0; v < x.rows(); ++v) out(v, 0) = uv[vs[v]].x(), out(v, 1) = uv[vs[v]].y();
-  // Counter-clockwise faces stay counter-clockwise (the parameterization may come out mirrored).
-  double signed_area = 0;
-  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
-    const Eigen::Vector2d a = out.row(faces(f, 0)), b = out.row(faces(f, 1)), c = out.row(faces(f, 2));
-    signed_area += (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
-  }
-  if (signed_area < 0) out.col(0) *= -1;
+  orient(&out);
   // LSCM pins two vertices, which fixes an arbitrary scale; the refinement frees it.
   Positions flat3(out.rows(), 3);
   flat3 << out, Eigen::VectorXd::Zero(out.rows());
   const double area3 = FaceAreas(x, faces).sum(), area2 = FaceAreas(flat3, faces).sum();
   if (area2 > 0) out *= std::sqrt(area3 / area2);
-  RefineArap(x, faces, &out, 200);
-  for (Eigen::Index v = 0; v < out.rows(); ++v)
-    if (!std::isfinite(out(v, 0)) || !std::isfinite(out(v, 1))) return Status::Error("flatten: vertex " + std::to_string(v) + " got no flat position");
   return out;
+}
+
+constexpr int kRefinementIterations = 500;
+
+// Flattens every piece (pieces[p]: rest positions and faces) with its sewn edges agreeing.
+Result<std::vector<FlatPositions>> FlattenPieces(const std::vector<const Positions*>& rest, const std::vector<const Faces*>& faces,
+                                                 const std::vector<SewnEdges>& sewn) {
+  const int n = static_cast<int>(rest.size());
+  std::vector<FlatPositions> flat(n);
+  std::vector<Status> status(n, Status::Ok());
+  std::vector<char> planar(n, 0);
+#pragma omp parallel for schedule(dynamic)
+  for (int p = 0; p < n; ++p) {
+    bool is_planar = false;
+    Result<FlatPositions> start = InitialFlat(*rest[p], *faces[p], &is_planar);
+    planar[p] = is_planar;
+    if (start.ok()) flat[p] = std::move(start).value();
+    else status[p] = start.status();
+  }
+  bool all_exact = sewn.empty();
+  for (int p = 0; p < n; ++p) {
+    if (!status[p].ok()) return status[p].WithContext(n > 1 ? "pattern piece " + std::to_string(p + 1) + ": " : "");
+    all_exact = all_exact && planar[p];
+  }
+  // Flat pieces with nothing sewn are their own pattern, exactly.
+  if (all_exact) return flat;
+  JointRefinement refinement(rest, faces, sewn);
+  if (!refinement.ok()) return Status::Error("flatten: the refinement's system could not be factorized");
+  std::vector<FlatPositions*> uv;
+  for (FlatPositions& f : flat) uv.push_back(&f);
+  refinement.Run(uv, kRefinementIterations);
+  for (size_t p = 0; p < flat.size(); ++p)
+    for (Eigen::Index v = 0; v < flat[p].rows(); ++v)
+      if (!std::isfinite(flat[p](v, 0)) || !std::isfinite(flat[p](v, 1)))
+        return Status::Error("flatten: piece " + std::to_string(p + 1) + " vertex " + std::to_string(v) + " got no flat position");
+  return flat;
+}
+
+}  // namespace
+
+Result<FlatPositions> FlattenDisk(const Positions& x, const Faces& faces) {
+  Result<std::vector<FlatPositions>> flat = FlattenPieces({&x}, {&faces}, {});
+  if (!flat.ok()) return flat.status();
+  return std::move(flat->front());
 }
 
 // Cuts `garment` along `seams` and flattens every piece.
@@ -332,9 +555,23 @@ Result<Pattern> CutAlong(const TriMesh& garment, const std::vector<Seam>& seams,
       for (int k = 0; k < 3; ++k) p.faces(j, k) = copy_of_face_corner[p.garment_faces[j]].at(faces(p.garment_faces[j], k));
     p.rest.resize(p.garment_vertex.size(), 3);
     for (size_t v = 0; v < p.garment_vertex.size(); ++v) p.rest.row(v) = x.row(p.garment_vertex[v]);
-    Result<FlatPositions> flat = FlattenDisk(p.rest, p.faces);
-    if (!flat.ok()) return flat.status().WithContext("pattern piece " + std::to_string(i + 1) + ": ");
-    p.flat = std::move(flat).value();
+  }
+  // The two sides of every cut edge, to be sewn together.
+  std::vector<SewnEdges> sewn;
+  for (const EdgeKey& e : cut) {
+    const std::vector<int>& fs = edge_faces.at(e);
+    const auto& ca = copy_of_face_corner[fs[0]];
+    const auto& cb = copy_of_face_corner[fs[1]];
+    sewn.push_back({piece_of[fs[0]], ca.at(e.first), ca.at(e.second), piece_of[fs[1]], cb.at(e.first), cb.at(e.second)});
+  }
+  std::vector<const Positions*> rest;
+  std::vector<const Faces*> piece_faces;
+  for (const PatternPiece& p : pattern.pieces) rest.push_back(&p.rest), piece_faces.push_back(&p.faces);
+  Result<std::vector<FlatPositions>> flat = FlattenPieces(rest, piece_faces, sewn);
+  if (!flat.ok()) return flat.status();
+  for (size_t i = 0; i < pattern.pieces.size(); ++i) {
+    PatternPiece& p = pattern.pieces[i];
+    p.flat = std::move((*flat)[i]);
     p.distortion = MeasureDistortion(p.rest, p.faces, p.flat);
     const std::vector<std::vector<int>> outline = BoundaryLoops(p.faces);
     p.outline = outline.front();
@@ -408,7 +645,9 @@ namespace {
 
 bool OverLimits(const Pattern& p, const PatternOptions& o) {
   for (const PatternPiece& piece : p.pieces)
-    if (piece.distortion.area_mean > o.max_area_distortion_mean || piece.distortion.area_max > o.max_area_distortion_max) return true;
+    if (piece.distortion.area_mean > o.max_area_distortion_mean || piece.distortion.area_max > o.max_area_distortion_max ||
+        piece.distortion.angle_mean_deg > o.max_angle_distortion_mean_deg)
+      return true;
   return false;
 }
 

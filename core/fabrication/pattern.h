@@ -5,8 +5,10 @@
 // one with several loops (a sleeve has two; shorts three; a shirt four) is cut along shortest paths
 // that join every loop to the first, through the least-strained cloth when a strain field is given
 // (seams where the garment works least). Flattening starts from CGAL's least-squares conformal map
-// (Surface_mesh_parameterization, LSCM) and refines it as rigidly as possible (local/global ARAP with a
-// free boundary and free scale), so areas and angles both stay close to the rest shape's.
+// (Surface_mesh_parameterization, LSCM) and refines all pieces together by local/global steps (as in
+// ARAP, with a free boundary and free scale) towards a map that keeps every triangle's area first and
+// its angles second, with the two sides of every seam held to equal lengths edge by edge, so that
+// pieces sew together as they were cut.
 #pragma once
 
 #include <Eigen/Core>
@@ -63,7 +65,7 @@ struct PatternOptions {
   Eigen::VectorXd strain;
   // Distortion limits: a sleeve (two boundary loops, seams chosen) whose one piece exceeds them is cut
   // into two along a second seam opposite the first.
-  double max_area_distortion_mean = 0.02, max_area_distortion_max = 0.05;
+  double max_area_distortion_mean = 0.02, max_area_distortion_max = 0.05, max_angle_distortion_mean_deg = 2;
 };
 
 // Cuts `garment` (rest shape) into disks and flattens each. Errors name the problem: a closed garment,

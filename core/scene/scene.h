@@ -29,6 +29,9 @@ struct SceneSpec {
   double body_support_scale = 2.0;
   double contact_stiffness_N_per_m = kDefaultContactStiffness;
   std::vector<int> attachment_faces;
+  // Where the garment is cut into pattern pieces for fabrication: paths of garment vertices along
+  // edges (empty: kgd chooses). No effect on the simulation.
+  std::vector<std::vector<int>> seams;
   double attachment_stiffness_N_per_m = kDefaultAttachmentStiffness;
   std::vector<Clamp> clamps;
   SolverSettings solver;

@@ -6,6 +6,9 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <algorithm>
+#include <charconv>
+#include <set>
+#include <sstream>
 
 #include "core/mesh/mesh_io.h"
 #include "core/scene/scene_keys.h"
@@ -254,6 +257,70 @@ Status ReadDesign(const Reader& r, const json& g, SceneSpec* s) {
   return Status::Ok();
 }
 
+// One seam per line: garment vertex indices separated by spaces; blank lines and # comments skipped.
+Result<std::vector<std::vector<int>>> ReadSeamFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return Status::Error(path + ": cannot open the seam file");
+  std::vector<std::vector<int>> seams;
+  int line_number = 0;
+  for (std::string line; std::getline(in, line);) {
+    ++line_number;
+    line = line.substr(0, line.find('#'));
+    std::istringstream words(line);
+    std::vector<int> seam;
+    for (std::string w; words >> w;) {
+      int v = 0;
+      const auto [end, ec] = std::from_chars(w.data(), w.data() + w.size(), v);
+      if (ec != std::errc() || end != w.data() + w.size())
+        return Status::Error(path + ":" + std::to_string(line_number) + ": '" + w + "' is not a vertex index");
+      seam.push_back(v);
+    }
+    if (!seam.empty()) seams.push_back(std::move(seam));
+  }
+  return seams;
+}
+
+// garment.seams: paths along the garment's edges (checked here, so that a bad seam is named with its
+// scene file rather than at export).
+Status ReadSeams(const Reader& r, const json& g, SceneSpec* s) {
+  if (!g.contains("seams")) return Status::Ok();
+  const json& v = g["seams"];
+  std::vector<std::vector<int>> seams;
+  std::string where = r.file() + ": garment.seams";
+  if (v.is_string()) {
+    where = r.Resolve(v.get<std::string>());
+    Result<std::vector<std::vector<int>>> read = ReadSeamFile(where);
+    if (!read.ok()) return read.status();
+    seams = std::move(read).value();
+  } else if (v.is_array()) {
+    for (size_t i = 0; i < v.size(); ++i) {
+      Result<std::vector<int>> seam = r.Indices(v[i], "garment.seams[" + std::to_string(i) + "]");
+      if (!seam.ok() || !v[i].is_array()) return r.Fail("garment.seams[" + std::to_string(i) + "]", "must be an array of garment vertex indices");
+      seams.push_back(std::move(seam).value());
+    }
+  } else {
+    return r.Fail("garment.seams", "must be an array of seams ([[0, 1, 2], ...]) or a seam file");
+  }
+  std::set<std::pair<int, int>> edges;
+  const Faces& faces = s->garment.faces;
+  for (Eigen::Index f = 0; f < faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) edges.insert(std::minmax(faces(f, k), faces(f, (k + 1) % 3)));
+  const int nv = static_cast<int>(s->garment.vertices.rows());
+  for (size_t i = 0; i < seams.size(); ++i) {
+    const std::string name = where + ": seam " + std::to_string(i + 1);
+    if (seams[i].size() < 2) return Status::Error(name + " has fewer than two vertices");
+    for (size_t k = 0; k < seams[i].size(); ++k) {
+      if (seams[i][k] < 0 || seams[i][k] >= nv)
+        return Status::Error(name + ": vertex " + std::to_string(seams[i][k]) + " is not a garment vertex (0.." + std::to_string(nv - 1) + ")");
+      if (k > 0 && !edges.count(std::minmax(seams[i][k - 1], seams[i][k])))
+        return Status::Error(name + " is not a path along edges: vertices " + std::to_string(seams[i][k - 1]) + " and " + std::to_string(seams[i][k]) +
+                             " share no edge of the garment");
+    }
+  }
+  s->seams = std::move(seams);
+  return Status::Ok();
+}
+
 Status ReadMaterials(const Reader& r, const json& doc, SceneSpec* s) {
   // Materials.
   if (doc.contains("materials")) {
@@ -416,6 +483,7 @@ Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* f
   KGD_RETURN_IF_ERROR(r.Number(a, "attachments", "stiffness_N_per_m", &s.attachment_stiffness_N_per_m));
   KGD_RETURN_IF_ERROR(g.contains("region") ? ReadGarmentCutFromBody(r, g, b, a, &s) : ReadGarmentOfItsOwn(r, g, b, a, &s));
   KGD_RETURN_IF_ERROR(ReadDesign(r, g, &s));
+  KGD_RETURN_IF_ERROR(ReadSeams(r, g, &s));
   if (doc.contains("description")) {
     if (!doc["description"].is_string()) return r.Fail("description", "must be a string");
     s.description = doc["description"].get<std::string>();
@@ -499,6 +567,7 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
     KGD_RETURN_IF_ERROR(WriteIndexList((dir / "reinforced_faces.txt").string(), reinforced));
     doc["garment"]["design"] = {{"reinforced_faces", "reinforced_faces.txt"}};
   }
+  if (!s.seams.empty()) doc["garment"]["seams"] = s.seams;
   doc["materials"] = {{"lame", s.lame == LameConversion::kSolid3D ? "solid3d" : "plane_stress"},
                       {"cloth", MaterialJson(s.cloth)},
                       {"reinforced", MaterialJson(s.reinforced)}};

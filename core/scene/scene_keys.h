@@ -29,6 +29,7 @@
   X(SceneGarment, region, "or: body faces of the rest pose, \"faces.txt\" or [0, 1, ...], 0-based")   \
   X(SceneGarment, subdivisions, "midpoint subdivisions of the region (each turns 1 face into 4)")     \
   X(SceneGarment, design, "\"all_cloth\", \"all_reinforced\" or a SceneDesign object")                \
+  X(SceneGarment, seams, "where kgd export cuts the pattern: [[v, v, ...], ...] or \"seams.txt\"")    \
   X(SceneDesign, reinforced_faces, "garment faces (after subdivision), \"faces.txt\" or [0, 1, ...]") \
   X(SceneMaterials, lame, "\"solid3d\" (the authors' code, default) or \"plane_stress\"")             \
   X(SceneMaterials, cloth, "SceneMaterial: the garment fabric")                                       \
