@@ -1,5 +1,7 @@
 #include "client/design_command.h"
 
+#include "client/cost_calibration.h"
+
 #include "core/beso/quality.h"
 
 #include "client/service_commands.h"
@@ -110,18 +112,23 @@ int RunDesign(const DesignOptions& o) {
   std::signal(SIGINT, OnInterrupt);
   std::signal(SIGTERM, OnInterrupt);
 
+  // What the job should take (core/beso/quality.h) on this machine, before it starts.
+  const Result<Quality> quality = QualityFromName(optimizer.quality().empty() ? "standard" : optimizer.quality());
+  const JobCostPrediction cost = PredictJobCost({.garment_faces = static_cast<int>(scene.garment.faces.rows()),
+                                                 .frames = 0,  // the scene is built: its set-up is spent
+                                                 .builtin_body = false,
+                                                 .quality = quality.ok() ? *quality : Quality::kStandard},
+                                                settings);
+  const MachineFactor machine = ReadMachineFactor();
+  const double predicted_s = machine.factor * (cost.iteration0_s + cost.iterations * cost.per_iteration_s);
   if (!o.json && !resume) {
-    // What the job should take (core/beso/quality.h), before it starts.
-    Result<Quality> quality = QualityFromName(optimizer.quality().empty() ? "standard" : optimizer.quality());
     const int frames = scene.motion ? static_cast<int>(scene.motion->frames.size()) : 0;
-    const JobCostPrediction p = PredictJobCost({.garment_faces = static_cast<int>(scene.garment.faces.rows()),
-                                                .frames = 0,  // the scene is built: its set-up is spent
-                                                .builtin_body = false,
-                                                .quality = quality.ok() ? *quality : Quality::kStandard},
-                                               settings);
-    std::printf("design %s -> %s (budget %.3g, %s, %d frames): predicted about %.0f s (%d iterations of %.3f s)\n", scene.name.c_str(),
-                path.c_str(), settings.budget, PresetOf(quality.ok() ? *quality : Quality::kStandard).name, frames,
-                p.iteration0_s + p.iterations * p.per_iteration_s, p.iterations, p.per_iteration_s);
+    char calibrated[96];
+    if (machine.jobs > 0) std::snprintf(calibrated, sizeof calibrated, "; this machine: %.2fx the reference, from %d jobs", machine.factor, machine.jobs);
+    else std::snprintf(calibrated, sizeof calibrated, "; the reference machine's until a job finishes here");
+    std::printf("design %s -> %s (budget %.3g, %s, %d frames): predicted about %.0f s (%d iterations of %.3f s%s)\n", scene.name.c_str(),
+                path.c_str(), settings.budget, PresetOf(quality.ok() ? *quality : Quality::kStandard).name, frames, predicted_s, cost.iterations,
+                machine.factor * cost.per_iteration_s, calibrated);
   } else if (!bar && !o.json) {
     std::printf("design %s -> %s (budget %.3g)\n", scene.name.c_str(), path.c_str(), settings.budget);
   }
@@ -190,9 +197,12 @@ int RunDesign(const DesignOptions& o) {
   }
   const BesoEnd how = BesoEndOf(metrics, settings, job->header.rest_area_m2.sum());
   const std::string why = DescribeBesoEnd(how, metrics, settings);
+  // A whole job teaches the cost model this machine's speed (a resumed one ran only part of it).
+  if (!resume && end.iteration >= 1) RecordDesignTime(cost.iteration0_s + end.iteration * cost.per_iteration_s, elapsed);
   if (o.json || !bar) {
     nlohmann::ordered_json j{{"event", "done"}, {"file", path}, {"iterations", end.iteration + 1}, {"area_fraction", end.area_fraction},
                              {"density_ratio", end.density_ratio}, {"seconds", elapsed}, {"end", why}};
+    if (!resume) j["predicted_s"] = predicted_s, j["machine_factor"] = machine.factor, j["machine_factor_jobs"] = machine.jobs;
     if (!evaluation_path.empty()) j["evaluation"] = evaluation_path;
     std::printf("%s\n", j.dump().c_str());
   } else if (how == BesoEnd::kNothingToResist) {

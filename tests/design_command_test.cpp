@@ -258,6 +258,47 @@ TEST_F(DesignCommand, AMotionlessSceneStopsAtOnceAndSaysWhy) {
   EXPECT_NE(r.output.find("finished: nothing to resist"), std::string::npos) << r.output;
 }
 
+// The done line's prediction and what the job took; `kgd design` learns the machine's factor from it.
+nlohmann::json DoneLine(const std::string& output) {
+  const size_t at = output.rfind("{\"event\":\"done\"");
+  if (at == std::string::npos) return {};
+  return nlohmann::json::parse(output.substr(at, output.find('\n', at) - at));
+}
+
+TEST_F(DesignCommand, AFinishedJobTunesThePredictionToThisMachine) {
+  const fs::path cache = dir_ / "cache";
+  setenv("KGD_CACHE_DIR", cache.c_str(), 1);
+  CommandRun r = Kgd(kJob + " --iterations 12 --out " + Path("a.h5"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json first = DoneLine(r.output);
+  ASSERT_TRUE(first.contains("predicted_s")) << r.output;
+  EXPECT_EQ(first["machine_factor"], 1.0) << "nothing learned yet: the reference machine's prediction";
+  EXPECT_EQ(first["machine_factor_jobs"], 0);
+  nlohmann::json learned;
+  std::ifstream(cache / "cost_calibration.json") >> learned;
+  EXPECT_EQ(learned["jobs"], 1);
+  const double factor = learned["factor"];
+  EXPECT_GT(factor, 1.0 / 20);
+  EXPECT_LT(factor, 20);
+  // The next job's prediction is this machine's.
+  r = Kgd(kJob + " --iterations 12 --out " + Path("b.h5"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json second = DoneLine(r.output);
+  EXPECT_EQ(second["machine_factor"], factor);
+  EXPECT_EQ(second["machine_factor_jobs"], 1);
+  EXPECT_NEAR(second["predicted_s"].get<double>(), factor * first["predicted_s"].get<double>(), 1e-9 * first["predicted_s"].get<double>());
+  r = Kgd("scenes");
+  EXPECT_NE(r.output.find("learned from the design jobs run here: 2"), std::string::npos) << r.output;
+  // A damaged file reads as nothing learned, and the next job writes a sound one.
+  std::ofstream(cache / "cost_calibration.json") << "{\"factor\": \"fast\"";
+  r = Kgd(kJob + " --iterations 12 --out " + Path("c.h5"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(DoneLine(r.output)["machine_factor"], 1.0);
+  std::ifstream(cache / "cost_calibration.json") >> learned;
+  EXPECT_EQ(learned["jobs"], 1);
+  unsetenv("KGD_CACHE_DIR");
+}
+
 TEST_F(DesignCommand, EvaluateAndBaselinesReadTheFile) {
   ASSERT_EQ(Kgd(kJob + " --iterations 3 --out " + Path("e.h5")).exit_code, 0);
   // The pull test has no motion frames: evaluate simulates its one pose, beside the fully reinforced design.

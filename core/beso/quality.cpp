@@ -40,6 +40,16 @@ Result<Quality> QualityFromName(std::string_view name) {
   return Status::Error("quality: '" + std::string(name) + "' is not a preset (one of: " + list + ")");
 }
 
+MachineFactor LearnMachineFactor(MachineFactor f, double predicted_s, double measured_s) {
+  if (!(predicted_s > 0) || !(measured_s > 0) || !std::isfinite(predicted_s) || !std::isfinite(measured_s)) return f;
+  const double ratio = std::clamp(measured_s / predicted_s, 1.0 / 20, 20.0);
+  const double kept = f.jobs > 0 && f.factor > 0 && f.weight_s > 0 ? 0.9 * f.weight_s : 0;
+  f.factor = std::exp((kept * std::log(kept > 0 ? f.factor : 1) + predicted_s * std::log(ratio)) / (kept + predicted_s));
+  f.weight_s = kept + predicted_s;
+  f.jobs += 1;
+  return f;
+}
+
 JobCostPrediction PredictJobCost(const JobCostInput& in, const BesoSettings& settings) {
   // Fitted on the built-in scenes with the pinned kernels on 2 cores (docs/ACCURACY.md, "Predicted job
   // time"): time per garment face of a warm re-solve and of the cold first solve, per preset, and the

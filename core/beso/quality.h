@@ -51,4 +51,18 @@ struct JobCostPrediction {
 // then the convergence window.
 JobCostPrediction PredictJobCost(const JobCostInput& input, const BesoSettings& settings);
 
+// How much longer than the reference machine this machine takes for the solves of a design job
+// (iteration 0 and the iterations after it; set-up aside), learned from its finished jobs: a geometric
+// mean of measured / predicted, each job weighted by its predicted seconds (a one-second pull test
+// hardly moves what ten arm sleeves taught) and older jobs' weights decaying by 0.9 per job. A factor
+// of 1 with no jobs is the reference machine's prediction.
+struct MachineFactor {
+  double factor = 1;
+  int jobs = 0;
+  double weight_s = 0;  // the decayed sum of the jobs' predicted seconds
+};
+// `predicted_s`: the reference prediction of the solves for the iterations the job ran (positive);
+// `measured_s`: what they took. A ratio beyond 1/20..20 counts as 1/20 or 20 (a suspended laptop).
+MachineFactor LearnMachineFactor(MachineFactor previous, double predicted_s, double measured_s);
+
 }  // namespace kgd

@@ -47,5 +47,26 @@ TEST(Quality, PredictedJobsGrowWithGarmentPresetAndBudget) {
   EXPECT_EQ(PredictJobCost({.garment_faces = 13936, .frames = 4}, s).iterations, 10);
 }
 
+TEST(Quality, TheMachineFactorIsAGeometricMeanOfItsJobsWeightedByTheirSizeAndRecency) {
+  MachineFactor f;
+  f = LearnMachineFactor(f, 10, 20);
+  EXPECT_EQ(f.jobs, 1);
+  EXPECT_DOUBLE_EQ(f.factor, 2.0);
+  // Ratios 2 (weight 0.9 x 10 s) and 0.5 (10 s): 2^(9/19) 0.5^(10/19) = 2^(-1/19).
+  f = LearnMachineFactor(f, 10, 5);
+  EXPECT_EQ(f.jobs, 2);
+  EXPECT_NEAR(f.factor, std::pow(2.0, -1.0 / 19), 1e-12);
+  // After many jobs at 1.6x the factor is 1.6x, whatever came before.
+  for (int k = 0; k < 300; ++k) f = LearnMachineFactor(f, 10, 16);
+  EXPECT_NEAR(f.factor, 1.6, 1e-9);
+  // A tiny job barely moves it.
+  EXPECT_NEAR(LearnMachineFactor(f, 0.01, 0.001).factor, 1.6, 0.01);
+  // Nonsense leaves it alone; a suspended laptop counts as 20x at most.
+  const MachineFactor same = LearnMachineFactor(f, 0, 5);
+  EXPECT_EQ(same.jobs, f.jobs);
+  EXPECT_EQ(same.factor, f.factor);
+  EXPECT_DOUBLE_EQ(LearnMachineFactor({}, 1, 1e6).factor, 20.0);
+}
+
 }  // namespace
 }  // namespace kgd

@@ -1,0 +1,56 @@
+#include "client/cost_calibration.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "core/scene/scene_cache.h"
+
+namespace kgd::cli {
+namespace {
+
+std::string CalibrationFile() {
+  const std::string dir = SceneCacheDir();
+  return dir.empty() ? "" : (std::filesystem::path(dir) / "cost_calibration.json").string();
+}
+
+}  // namespace
+
+MachineFactor ReadMachineFactor() {
+  const std::string path = CalibrationFile();
+  if (path.empty()) return {};
+  std::ifstream in(path);
+  if (!in) return {};
+  const nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (!j.is_object() || !j.contains("factor") || !j.contains("jobs") || !j["factor"].is_number() || !j["jobs"].is_number_integer()) return {};
+  const double factor = j["factor"].get<double>();
+  const int jobs = j["jobs"].get<int>();
+  const double weight_s = j.contains("weight_s") && j["weight_s"].is_number() ? j["weight_s"].get<double>() : 0;
+  if (!(factor >= 1.0 / 20 && factor <= 20) || jobs < 0 || !(weight_s >= 0 && weight_s < 1e12)) return {};
+  return {.factor = factor, .jobs = jobs, .weight_s = weight_s};
+}
+
+void RecordDesignTime(double predicted_s, double measured_s) {
+  const std::string path = CalibrationFile();
+  if (path.empty()) return;
+  const MachineFactor f = LearnMachineFactor(ReadMachineFactor(), predicted_s, measured_s);
+  std::error_code ec;
+  std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
+  // Another kgd may write at the same time: each writes its own temporary file, and the last rename wins.
+  const std::string tmp = path + ".tmp" + std::to_string(getpid());
+  {
+    std::ofstream out(tmp);
+    out << nlohmann::json{{"factor", f.factor}, {"jobs", f.jobs}, {"weight_s", f.weight_s}}.dump() << "\n";
+    if (!out) {
+      std::filesystem::remove(tmp, ec);
+      return;
+    }
+  }
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) std::filesystem::remove(tmp, ec);
+}
+
+}  // namespace kgd::cli
