@@ -109,7 +109,7 @@ double AreaPreservingStretch(double s1, double s2, double rigidity, double t) {
 
 // Local/global refinement of several pieces at once (Liu et al. 2008, with the area-preserving local
 // step above), each with a free boundary and free scale, and every sewn pair of outline edges pulled to
-// a common length (the mean of the two), so that the two sides of a seam or dart sew together.
+// a common length (the mean of the two), so that the two sides of a seam sew together.
 class JointRefinement {
  public:
   JointRefinement(const std::vector<const Positions*>& rest, const std::vector<const Faces*>& faces, std::vector<SewnEdges> sewn)
