@@ -122,6 +122,12 @@ struct JobService::Impl {
   std::map<int64_t, OpenFile> files;
   ServiceMetrics metrics;
 
+  // The last few exports (ExportDesign), most recent first: the web page asks for each cut file of an
+  // iteration separately, and a stored iteration never changes, so they share one export.
+  std::mutex exports_mu;
+  std::vector<std::pair<std::string, std::shared_ptr<const ExportFiles>>> exports;
+  static constexpr size_t kExportsKept = 4;
+
   // Limits kept in memory: open watches per job, and each user's job-creation bucket.
   std::mutex limits_mu;
   std::map<int64_t, int> watchers;
@@ -595,18 +601,38 @@ ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDes
   if (k < 0 || k >= job.iterations())
     return Error(ServiceCode::kNotFound, "job " + std::to_string(req.id()) + ": iteration " + std::to_string(req.iteration()) + " is not stored (" +
                                              (job.iterations() ? "0.." + std::to_string(job.iterations() - 1) : "none yet") + ")");
-  Result<DesignFile> f = [&] {
-    std::lock_guard lock(m.commit_mu);
-    return ReadDesignFile(m.FilePath(req.id()), {.arrays = true, .only_iteration = k});
-  }();
-  if (!f.ok()) return Internal(f.status());
   ExportOptions o;
   if (req.has_min_feature_mm()) o.cleaning.min_feature_m = req.min_feature_mm() / 1000;
   if (req.has_seam_allowance_mm()) o.sheet.seam_allowance_mm = req.seam_allowance_mm();
   if (req.has_sheet_width_mm()) o.sheet.sheet_width_mm = req.sheet_width_mm();
   o.sheet.mirror = !req.no_mirror();
-  Result<ExportFiles> files = ExportGeometry(f->header, f->iterations[k], o);
-  if (!files.ok()) return Error(ServiceCode::kInvalidArgument, "job " + std::to_string(req.id()) + ": " + files.message());
+  // The caller may see this job (FindJob above): a cached export of it is theirs to have.
+  char key[160];
+  std::snprintf(key, sizeof key, "%lld/%d/%.17g/%.17g/%.17g/%d", static_cast<long long>(req.id()), k, o.cleaning.min_feature_m,
+                o.sheet.seam_allowance_mm, o.sheet.sheet_width_mm, o.sheet.mirror ? 1 : 0);
+  std::shared_ptr<const ExportFiles> files;
+  {
+    std::lock_guard lock(m.exports_mu);
+    const auto it = std::find_if(m.exports.begin(), m.exports.end(), [&](const auto& e) { return e.first == key; });
+    if (it != m.exports.end()) {
+      files = it->second;
+      std::rotate(m.exports.begin(), it, it + 1);
+    }
+  }
+  m.metrics.ExportServed(files != nullptr);
+  if (!files) {
+    Result<DesignFile> f = [&] {
+      std::lock_guard lock(m.commit_mu);
+      return ReadDesignFile(m.FilePath(req.id()), {.arrays = true, .only_iteration = k});
+    }();
+    if (!f.ok()) return Internal(f.status());
+    Result<ExportFiles> made = ExportGeometry(f->header, f->iterations[k], o);
+    if (!made.ok()) return Error(ServiceCode::kInvalidArgument, "job " + std::to_string(req.id()) + ": " + made.message());
+    files = std::make_shared<const ExportFiles>(std::move(made).value());
+    std::lock_guard lock(m.exports_mu);
+    m.exports.insert(m.exports.begin(), {key, files});
+    if (m.exports.size() > Impl::kExportsKept) m.exports.pop_back();
+  }
   for (const auto& [name, contents] : files->files) (*out->mutable_files())[name] = contents;
   return ServiceStatus::Ok();
 }

@@ -23,6 +23,9 @@ struct ServiceMetrics::Impl {
   pm::Counter& created = pm::BuildCounter().Name("kgd_jobs_created_total").Help("Jobs accepted").Register(registry).Add({});
   pm::Counter& expiries =
       pm::BuildCounter().Name("kgd_lease_expiries_total").Help("Worker leases that ran out").Register(registry).Add({});
+  pm::Family<pm::Counter>& exports = pm::BuildCounter().Name("kgd_exports_total").Help("Cut-file exports served, computed or from the cache").Register(registry);
+  pm::Counter& exports_computed = exports.Add({{"source", "computed"}});
+  pm::Counter& exports_cached = exports.Add({{"source", "cache"}});
   pm::Gauge& watchers = pm::BuildGauge().Name("kgd_watchers").Help("Open WatchJob streams (gRPC and HTTP)").Register(registry).Add({});
   // Buckets: design iterations run from ~10 ms (small garments) to seconds (whole-body, precise).
   pm::Histogram& iteration_s = pm::BuildHistogram()
@@ -68,6 +71,7 @@ void ServiceMetrics::IterationStored(double iteration_s, double report_time_s, d
 void ServiceMetrics::LeasesExpired(int count) { impl_->expiries.Increment(count); }
 void ServiceMetrics::WatcherOpened() { impl_->watchers.Increment(); }
 void ServiceMetrics::WatcherClosed() { impl_->watchers.Decrement(); }
+void ServiceMetrics::ExportServed(bool from_cache) { (from_cache ? impl_->exports_cached : impl_->exports_computed).Increment(); }
 
 std::string ServiceMetrics::Text(const std::map<std::string, double>& jobs_by_state, double queue_depth) {
   std::lock_guard lock(impl_->jobs_mu);

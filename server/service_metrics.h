@@ -11,6 +11,8 @@
 //   kgd_lease_expiries_total             counter   leases that ran out (a worker vanished or stalled)
 //   kgd_watchers                         gauge     open WatchJob streams, gRPC and HTTP together
 //   kgd_jobs_created_total               counter   jobs accepted
+//   kgd_exports_total{source}            counter   cut-file exports served: "computed", or "cache" (the
+//                                                  same job, iteration and options as a recent one)
 //
 // Thread-safe: every method may be called from any thread.
 #pragma once
@@ -32,6 +34,7 @@ class ServiceMetrics {
   void LeasesExpired(int count);
   void WatcherOpened();
   void WatcherClosed();
+  void ExportServed(bool from_cache);
   // The text exposition of every figure, with the jobs per state given (state name -> count).
   std::string Text(const std::map<std::string, double>& jobs_by_state, double queue_depth);
 

@@ -216,6 +216,14 @@ TEST_F(HttpApi, AWatchDroppedMidJobResumesWithLastEventIdWithNoGapAndNoDuplicate
   EXPECT_EQ(last_job.state(), v1::SUCCEEDED);
 }
 
+// One sample of the Prometheus text at /metrics, e.g. Sample(text, "kgd_jobs{state=\"SUCCEEDED\"}"); -1: absent.
+double Sample(const std::string& text, const std::string& series) {
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);)
+    if (line.rfind(series + " ", 0) == 0) return std::stod(line.substr(series.size() + 1));
+  return -1;
+}
+
 TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
   const v1::Job job = Create(SleeveJob(6, "arrays"));
   const std::string id = std::to_string(job.id());
@@ -299,7 +307,9 @@ TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
   ASSERT_TRUE(no_baseline);
   EXPECT_EQ(no_baseline->status, 404);
 
-  // Cut files, made on request by geometry alone.
+  // Cut files, made on request by geometry alone; each file of the same export after the first comes
+  // from the server's cache.
+  const std::string before = cli.Get("/metrics")->body;
   auto cut = cli.Get("/v1/jobs/" + id + "/iterations/" + n + "/cut/patches.svg");
   ASSERT_TRUE(cut && cut->status == 200) << (cut ? cut->body : "no response");
   EXPECT_EQ(cut->get_header_value("Content-Type"), "image/svg+xml");
@@ -323,6 +333,13 @@ TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
   ASSERT_EQ(exported.exit_code, 0) << exported.output;
   std::ifstream svg(out + "/patches.svg");
   EXPECT_EQ(std::string(std::istreambuf_iterator<char>(svg), {}), cut->body) << "the same file as the HTTP download";
+  const std::string after = cli.Get("/metrics")->body;
+  auto served = [](const std::string& text, const std::string& source) {
+    const double v = Sample(text, "kgd_exports_total{source=\"" + source + "\"}");
+    return v < 0 ? 0.0 : v;
+  };
+  EXPECT_EQ(served(after, "computed") - served(before, "computed"), 2) << "patches.svg, then report.json with other options";
+  EXPECT_EQ(served(after, "cache") - served(before, "cache"), 2) << "patches.png, and kgd export with the same options";
   const auto unknown = cli_test::Kgd("export 987654 --server " + Service().grpc() + " --out " + out + "-unknown");
   EXPECT_EQ(unknown.exit_code, 2) << unknown.output;
   EXPECT_NE(unknown.output.find("987654"), std::string::npos) << unknown.output;
@@ -468,14 +485,6 @@ TEST_F(HttpApi, ThePageAndItsLibrariesAreServed) {
   ASSERT_TRUE(packed && packed->status == 200);
   EXPECT_NE(packed->get_header_value("Content-Encoding"), "br");
   EXPECT_LT(packed->body.size(), three->body.size()) << "sent uncompressed";
-}
-
-// One sample of the Prometheus text at /metrics, e.g. Sample(text, "kgd_jobs{state=\"SUCCEEDED\"}"); -1: absent.
-double Sample(const std::string& text, const std::string& series) {
-  std::istringstream lines(text);
-  for (std::string line; std::getline(lines, line);)
-    if (line.rfind(series + " ", 0) == 0) return std::stod(line.substr(series.size() + 1));
-  return -1;
 }
 
 TEST_F(HttpApi, MetricsCountJobsIterationsWritesAndWatchers) {
