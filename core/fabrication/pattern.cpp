@@ -128,9 +128,9 @@ class JointRefinement {
   void Run(std::vector<FlatPositions*> uv, int iterations) {
     offset_.assign(1, 0);
     for (FlatPositions* f : uv) offset_.push_back(offset_.back() + 2 * f->rows());
+    // FlatPositions is row-major: vertex v's (u, w) at 2v, 2v + 1 of its piece's segment.
     Eigen::VectorXd x(offset_.back());
     for (size_t p = 0; p < uv.size(); ++p) x.segment(offset_[p], 2 * uv[p]->rows()) = Eigen::Map<const Eigen::VectorXd>(uv[p]->data(), 2 * uv[p]->rows());
-    // FlatPositions is row-major: vertex v's (u, w) at 2v, 2v + 1.
     double energy = LocalStep(x);
     constexpr int kHistory = 6;
     std::vector<Eigen::VectorXd> df, dg;
@@ -183,7 +183,7 @@ class JointRefinement {
     std::vector<Eigen::Matrix2d> rest_inverse;          // inverse of the rest edge matrix [e1 e2]
     std::vector<Eigen::Matrix2d> target;
     std::vector<double> area;                           // rest area (m^2)
-    std::vector<double> energy;                         // each triangle's share of the last local step's
+    std::vector<double> energy;                         // each triangle's share of the last local step's energy
     std::vector<double> stretch;                        // the local step's last t, a warm start
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
   };
@@ -242,7 +242,7 @@ class JointRefinement {
     for (size_t p = 0; p < pieces_.size(); ++p) {
       Piece& piece = *pieces_[p];
       const Faces& faces = *piece.faces;
-      auto at = [&](int v) { return Eigen::Vector2d(x[offset_[p] + 2 * v], x[offset_[p] + 2 * v + 1]); };
+      auto at = [&](int v) { return Point(x, p, v); };
       piece.energy.resize(faces.rows());
 #pragma omp parallel for schedule(static)
       for (Eigen::Index f = 0; f < faces.rows(); ++f) {
@@ -281,9 +281,8 @@ class JointRefinement {
     return energy;
   }
 
-  Eigen::Vector2d Edge(const Eigen::VectorXd& x, int p, int v0, int v1) const {
-    return Eigen::Vector2d(x[offset_[p] + 2 * v0] - x[offset_[p] + 2 * v1], x[offset_[p] + 2 * v0 + 1] - x[offset_[p] + 2 * v1 + 1]);
-  }
+  Eigen::Vector2d Point(const Eigen::VectorXd& x, size_t p, int v) const { return x.segment<2>(offset_[p] + 2 * v); }
+  Eigen::Vector2d Edge(const Eigen::VectorXd& x, int p, int v0, int v1) const { return Point(x, p, v0) - Point(x, p, v1); }
 
   // The positions minimizing the energy for the last local step's targets, each piece's vertex 0 held.
   Eigen::VectorXd GlobalStep() const {
