@@ -7,6 +7,7 @@ nproc; lscpu | grep -E "Model name|^CPU\(s\)" || true
 "$build/bench/body_benchmark" --benchmark_counters_tabular=true "${@:2}"
 "$build/bench/design_benchmark" --benchmark_counters_tabular=true "${@:2}"
 "$build/bench/service_benchmark"
+bash bench/export_benchmark.sh "$build"
 if [ -x /usr/bin/chromium ] && [ -d client/web/node_modules/playwright-core ]; then
   node bench/web_benchmark.mjs --kgd "$build/client/kgd"
 else

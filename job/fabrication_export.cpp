@@ -2,11 +2,13 @@
 
 #include "core/fabrication/sheet_png.h"
 
+#include <omp.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -129,14 +131,16 @@ namespace {
 
 using Files = std::vector<std::pair<std::string, std::string>>;  // name, contents
 
-// The pattern, the patches of r->cleaned.design and the sheets' files (report.json aside).
-Status CutFiles(const TriMesh& garment, const std::vector<std::vector<int>>& seams, const Eigen::VectorXd& strain, const std::vector<uint8_t>& include,
-                const std::string& label, const ExportOptions& o, ExportReport* r, Files* files, Stages& stages) {
-  stages.Begin("cutting and flattening the pattern", 0.5);
+PatternOptions PatternOptionsOf(const std::vector<std::vector<int>>& seams, const Eigen::VectorXd& strain) {
   PatternOptions po;
   po.strain = strain;
   for (const std::vector<int>& s : seams) po.seams.push_back({s});
-  Result<Pattern> pattern = CutPattern(garment, po);
+  return po;
+}
+
+// The patches of r->cleaned.design on `pattern` and the sheets' files (report.json aside).
+Status CutFiles(Result<Pattern> pattern, const std::vector<uint8_t>& include, const std::string& label, const ExportOptions& o, ExportReport* r,
+                Files* files, Stages& stages) {
   if (!pattern.ok()) return pattern.status().WithContext("export: " + label + ": ");
   r->pattern = std::move(pattern).value();
   stages.Begin("outlining the patches", 0.75);
@@ -220,21 +224,37 @@ Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& s
       if (clamped[garment.faces(f, 0)] && clamped[garment.faces(f, 1)] && clamped[garment.faces(f, 2)]) include[f] = 0, keep[f] = 1;
   }
   KGD_RETURN_IF_ERROR(CheckReinforced(scene.design, include, label));
+
+  // The pattern depends on the garment and its seams alone: it is cut on a thread of its own while the
+  // design is cleaned and simulated, each side on one core (two OpenMP teams on two cores would spin
+  // against each other).
+  const PatternOptions pattern_options = PatternOptionsOf(scene.seams, strain);
+  std::future<Result<Pattern>> pattern = std::async(std::launch::async, [&garment, &pattern_options, &r] {
+    omp_set_num_threads(1);
+    const auto begin = std::chrono::steady_clock::now();
+    Result<Pattern> p = CutPattern(garment, pattern_options);
+    r.pattern_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+    return p;
+  });
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
   stages.Begin("cleaning the design for manufacture", 0.1);
   r.cleaned = CleanDesign(garment, scene.design, o.cleaning, keep);
 
   // The cleaned design, simulated as the design loop does.
-  stages.Begin("simulating the cleaned design", 0.2);
+  stages.Begin("simulating the cleaned design (the pattern is cut alongside)", 0.2);
   SceneSpec cleaned = scene;
   cleaned.design = r.cleaned.design;
   Result<SimulationResult> sim = SimulateScene(cleaned);
+  omp_set_num_threads(threads);
   if (!sim.ok()) return sim.status().WithContext("export: the cleaned design: ");
   r.cleaned_density_ratio = full_density > 0 ? sim->reinforced_density_J_per_m2 / full_density : 0;
   r.cleaned_area_fraction = sim->reinforced_area_m2 / rest_area.sum();
   r.cleaned_solve_status = ToString(sim->solve.status);
 
   Files files;
-  KGD_RETURN_IF_ERROR(CutFiles(garment, scene.seams, strain, include, label, o, &r, &files, stages));
+  stages.Begin("finishing the pattern", 0.5);
+  KGD_RETURN_IF_ERROR(CutFiles(pattern.get(), include, label, o, &r, &files, stages));
   stages.Begin("writing the files", 0.95);
   for (const auto& [name, contents] : files) r.files.push_back((fs::path(out_dir) / name).string());
   r.files.push_back((fs::path(out_dir) / "report.json").string());
@@ -270,7 +290,11 @@ Result<ExportFiles> ExportGeometry(const DesignFileHeader& h, const BesoIteratio
   for (int f = 0; f < nf; ++f) area += r.cleaned.design[f] ? h.rest_area_m2[f] : 0;
   r.cleaned_area_fraction = area / h.rest_area_m2.sum();
   r.cleaned_solve_status = "not simulated";
-  KGD_RETURN_IF_ERROR(CutFiles(h.garment, {}, it.energy_density_Pa, include, label, o, &r, &out.files, stages));
+  stages.Begin("cutting and flattening the pattern", 0.5);
+  const auto begin = std::chrono::steady_clock::now();
+  Result<Pattern> pattern = CutPattern(h.garment, PatternOptionsOf({}, it.energy_density_Pa));
+  r.pattern_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+  KGD_RETURN_IF_ERROR(CutFiles(std::move(pattern), include, label, o, &r, &out.files, stages));
   r.stage_seconds = stages.Finish();
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const auto& [name, contents] : out.files) r.files.push_back(name);
@@ -320,6 +344,7 @@ std::string ExportReportJson(const ExportReport& r) {
   j["sheet_usage"] = r.sheet_usage;
   j["files"] = r.files;
   j["seconds"] = r.seconds;
+  j["pattern_seconds"] = r.pattern_seconds;
   j["stage_seconds"] = nlohmann::ordered_json::object();
   for (const auto& [stage, seconds] : r.stage_seconds) j["stage_seconds"][stage] = seconds;
   return j.dump(2) + "\n";

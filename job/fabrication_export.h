@@ -40,7 +40,10 @@ struct ExportReport {
   std::vector<SeamSides> seam_lengths;
   std::vector<std::string> files;     // written, in order
   double seconds = 0;
-  std::vector<std::pair<std::string, double>> stage_seconds;  // where the time went, stage by stage
+  // Where the time went, stage by stage. An export that simulates cuts the pattern alongside cleaning
+  // and simulating: its stage is then the wait for it, and pattern_seconds its own time.
+  std::vector<std::pair<std::string, double>> stage_seconds;
+  double pattern_seconds = 0;
 };
 
 // Exports iteration `options.iteration` of `design_file` into `out_dir` (created if missing), cut

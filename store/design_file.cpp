@@ -286,35 +286,55 @@ Result<std::unique_ptr<DesignFileReader>> OpenDesignFileReader(const std::string
 }
 
 // Reads iteration row i: its metrics, and its arrays when `arrays`. Errors name the row.
-Status ReadIteration(const DesignFileReader& r, hsize_t i, bool arrays, BesoIteration* it) {
+// The metrics of rows [first, first + rows) into it[0, rows): one read per metric, not per row (a
+// long job's file holds thousands of rows).
+Status ReadMetricRows(const DesignFileReader& r, hsize_t first, hsize_t rows, BesoIteration* it) {
   const hid_t its = r.its;
   const std::string& path = r.path;
-  bool ok = ReadRow(its, "iteration", H5T_NATIVE_INT, i, &it->iteration);
-  int status = 0;
-  ok = ok && ReadRow(its, "status", H5T_NATIVE_INT, i, &status);
+  std::vector<int> whole(rows);
+  std::vector<double> real(rows);
+  bool ok = ReadRows(its, "iteration", H5T_NATIVE_INT, first, rows, whole.data());
+  for (hsize_t i = 0; ok && i < rows; ++i) it[i].iteration = whole[i];
+  ok = ok && ReadRows(its, "status", H5T_NATIVE_INT, first, rows, whole.data());
   const int last = static_cast<int>(kLastSolveStatus);
-  if (ok && (status < 0 || status > last))
-    return Fail(path, "/iterations/status row " + std::to_string(i) + " holds " + std::to_string(status) +
-                          ", not a solver status (0-" + std::to_string(last) + ")");
-  it->status = static_cast<SolveStatus>(status);
+  for (hsize_t i = 0; ok && i < rows; ++i) {
+    if (whole[i] < 0 || whole[i] > last)
+      return Fail(path, "/iterations/status row " + std::to_string(first + i) + " holds " + std::to_string(whole[i]) +
+                            ", not a solver status (0-" + std::to_string(last) + ")");
+    it[i].status = static_cast<SolveStatus>(whole[i]);
+  }
   for (const MetricSpec& s : Metrics()) {
     if (s.optional && !HasDataset(its, s.name)) continue;  // a file from before the metric: it stays 0
-    ok = ok && (s.integer ? ReadRow(its, s.name, H5T_NATIVE_INT, i, &(it->*(s.whole)))
-                          : ReadRow(its, s.name, H5T_NATIVE_DOUBLE, i, &(it->*(s.real))));
+    if (s.integer) {
+      ok = ok && ReadRows(its, s.name, H5T_NATIVE_INT, first, rows, whole.data());
+      for (hsize_t i = 0; ok && i < rows; ++i) it[i].*(s.whole) = whole[i];
+    } else {
+      ok = ok && ReadRows(its, s.name, H5T_NATIVE_DOUBLE, first, rows, real.data());
+      for (hsize_t i = 0; ok && i < rows; ++i) it[i].*(s.real) = real[i];
+    }
   }
-  if (!ok) return Fail(path, "cannot read the metrics of iteration row " + std::to_string(i));
-  if (it->iteration != static_cast<int>(i))
-    return Fail(path, "/iterations/iteration row " + std::to_string(i) + " holds " + std::to_string(it->iteration));
+  if (!ok)
+    return Fail(path, rows == 1 ? "cannot read the metrics of iteration row " + std::to_string(first)
+                                : "cannot read the metrics of iteration rows " + std::to_string(first) + ".." + std::to_string(first + rows - 1));
+  for (hsize_t i = 0; i < rows; ++i)
+    if (it[i].iteration != static_cast<int>(first + i))
+      return Fail(path, "/iterations/iteration row " + std::to_string(first + i) + " holds " + std::to_string(it[i].iteration));
+  return Status::Ok();
+}
+
+Status ReadIteration(const DesignFileReader& r, hsize_t i, bool arrays, BesoIteration* it) {
+  KGD_RETURN_IF_ERROR(ReadMetricRows(r, i, 1, it));
   if (!arrays) return Status::Ok();
+  const hid_t its = r.its;
   const int nf = static_cast<int>(r.header.garment.faces.rows()), nv = static_cast<int>(r.header.garment.vertices.rows());
   it->design.resize(nf);
   std::vector<double> x(static_cast<size_t>(nv) * 3);
   it->energy_density_Pa.resize(nf);
   it->sensitivity.resize(nf);
-  ok = ReadRow(its, "design", H5T_NATIVE_UINT8, i, it->design.data()) && ReadRow(its, "positions", H5T_NATIVE_DOUBLE, i, x.data()) &&
+  const bool ok = ReadRow(its, "design", H5T_NATIVE_UINT8, i, it->design.data()) && ReadRow(its, "positions", H5T_NATIVE_DOUBLE, i, x.data()) &&
        ReadRow(its, "energy_density_Pa", H5T_NATIVE_DOUBLE, i, it->energy_density_Pa.data()) &&
        ReadRow(its, "sensitivity", H5T_NATIVE_DOUBLE, i, it->sensitivity.data());
-  if (!ok) return Fail(path, "cannot read the arrays of iteration " + std::to_string(i));
+  if (!ok) return Fail(r.path, "cannot read the arrays of iteration " + std::to_string(i));
   it->positions = FromRowMajor(x);
   if (i == 0) it->sensitivity.resize(0);
   return Status::Ok();
@@ -546,10 +566,11 @@ Result<DesignFile> ReadDesignFile(const std::string& path, const DesignFileReadO
   DesignFile out;
   out.header = reader.header;
   out.iterations.resize(reader.rows);
-  for (hsize_t i = 0; i < reader.rows; ++i) {
-    const bool arrays = options.arrays && (options.only_iteration < 0 || options.only_iteration == static_cast<int>(i));
-    if (Status st = ReadIteration(reader, i, arrays, &out.iterations[i]); !st.ok()) return st;
-  }
+  KGD_RETURN_IF_ERROR(ReadMetricRows(reader, 0, reader.rows, out.iterations.data()));
+  if (!options.arrays) return out;
+  for (hsize_t i = 0; i < reader.rows; ++i)
+    if (options.only_iteration < 0 || options.only_iteration == static_cast<int>(i))
+      KGD_RETURN_IF_ERROR(ReadIteration(reader, i, /*arrays=*/true, &out.iterations[i]));
   return out;
 }
 

@@ -112,13 +112,13 @@ bool CreateGrowing(hid_t group, const char* name, hid_t file_type, const std::ve
 }
 
 namespace {
-// Selects row `index` of `file_space` and returns the matching memory space (one row).
-Id SelectRow(hid_t file_space, hsize_t index) {
+// Selects rows [first, first + rows) of `file_space` and returns the matching memory space.
+Id SelectRows(hid_t file_space, hsize_t first, hsize_t rows = 1) {
   const int rank = H5Sget_simple_extent_ndims(file_space);
   std::vector<hsize_t> start(rank, 0), count(rank);
   H5Sget_simple_extent_dims(file_space, count.data(), nullptr);
-  start[0] = index;
-  count[0] = 1;
+  start[0] = first;
+  count[0] = rows;
   H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr);
   return Id(H5Screate_simple(rank, count.data(), nullptr), H5Sclose);
 }
@@ -132,16 +132,19 @@ bool WriteRow(hid_t group, const char* name, hid_t mem_type, hsize_t index, cons
   dims[0] = index + 1;
   if (H5Dset_extent(set, dims.data()) < 0) return false;
   Id file_space(H5Dget_space(set), H5Sclose);
-  Id mem_space = SelectRow(file_space, index);
+  Id mem_space = SelectRows(file_space, index);
   return H5Dwrite(set, mem_type, mem_space, file_space, H5P_DEFAULT, data) >= 0;
 }
 
-bool ReadRow(hid_t group, const char* name, hid_t mem_type, hsize_t index, void* data) {
+bool ReadRow(hid_t group, const char* name, hid_t mem_type, hsize_t index, void* data) { return ReadRows(group, name, mem_type, index, 1, data); }
+
+bool ReadRows(hid_t group, const char* name, hid_t mem_type, hsize_t first, hsize_t rows, void* data) {
   Id set(H5Dopen2(group, name, H5P_DEFAULT), H5Dclose);
   if (!set.ok()) return false;
-  if (index >= Dims(set)[0]) return false;
+  if (first + rows > Dims(set)[0]) return false;
+  if (rows == 0) return true;
   Id file_space(H5Dget_space(set), H5Sclose);
-  Id mem_space = SelectRow(file_space, index);
+  Id mem_space = SelectRows(file_space, first, rows);
   return H5Dread(set, mem_type, mem_space, file_space, H5P_DEFAULT, data) >= 0;
 }
 

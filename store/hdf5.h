@@ -63,6 +63,8 @@ bool CreateGrowing(hid_t group, const char* name, hid_t file_type, const std::ve
 // Writes row `index` of a growing dataset (extending it to index + 1 rows).
 bool WriteRow(hid_t group, const char* name, hid_t mem_type, hsize_t index, const void* data);
 bool ReadRow(hid_t group, const char* name, hid_t mem_type, hsize_t index, void* data);
+// Reads rows [first, first + rows) into `data` (rows x row size, row-major); false past the end.
+bool ReadRows(hid_t group, const char* name, hid_t mem_type, hsize_t first, hsize_t rows, void* data);
 // Keeps the first `rows` rows.
 bool Truncate(hid_t group, const char* name, hsize_t rows);
 

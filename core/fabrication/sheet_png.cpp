@@ -89,10 +89,9 @@ Result<std::string> SheetPng(const Sheet& sheet, double px_per_mm) {
   image.width = static_cast<png_uint_32>(c.width);
   image.height = static_cast<png_uint_32>(c.height);
   image.format = PNG_FORMAT_RGB;
-  png_alloc_size_t size = 0;
-  if (!png_image_write_to_memory(&image, nullptr, &size, 0, c.rgb.data(), 0, nullptr))
-    return Status::Error(std::string("PNG preview: ") + image.message);
-  std::string bytes(size, '\0');
+  // Encoded once into a buffer of the largest size it can take (asking for the size first encodes twice).
+  std::string bytes(PNG_IMAGE_PNG_SIZE_MAX(image), '\0');
+  png_alloc_size_t size = bytes.size();
   if (!png_image_write_to_memory(&image, bytes.data(), &size, 0, c.rgb.data(), 0, nullptr))
     return Status::Error(std::string("PNG preview: ") + image.message);
   bytes.resize(size);

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <string_view>
 
 namespace kgd {
 namespace {
@@ -23,14 +24,14 @@ bool EndsWith(const std::string& s, const std::string& suffix) {
 
 std::string Where(const std::string& path, size_t line) { return path + ":" + std::to_string(line) + ": "; }
 
-bool ParseDouble(const std::string& token, double* out) {
+bool ParseDouble(std::string_view token, double* out) {
   const char* begin = token.data();
   const char* end = token.data() + token.size();
   auto [ptr, ec] = std::from_chars(begin, end, *out);
   return ec == std::errc() && ptr == end;
 }
 
-bool ParseInt(const std::string& token, long* out) {
+bool ParseInt(std::string_view token, long* out) {
   const char* begin = token.data();
   const char* end = token.data() + token.size();
   if (begin != end && *begin == '+') ++begin;
@@ -38,50 +39,72 @@ bool ParseInt(const std::string& token, long* out) {
   return ec == std::errc() && ptr == end;
 }
 
+bool IsSpace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+// The whitespace-separated words of one line (views into it).
+int SplitLine(std::string_view line, std::vector<std::string_view>* words) {
+  words->clear();
+  size_t i = 0;
+  while (true) {
+    while (i < line.size() && IsSpace(line[i])) ++i;
+    if (i == line.size()) break;
+    const size_t start = i;
+    while (i < line.size() && !IsSpace(line[i])) ++i;
+    words->push_back(line.substr(start, i - start));
+  }
+  return static_cast<int>(words->size());
+}
+
 Result<TriMesh> ReadObj(const std::string& path) {
-  std::ifstream in(path);
+  // The whole file at once, split into lines and words by hand: a scene's bodies are tens of MB of
+  // OBJ, and a stream per line costs several times the parsing itself.
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) return Status::Error(path + ": cannot open file");
+  std::string text(static_cast<size_t>(std::max<std::streamoff>(0, in.tellg())), '\0');
+  in.seekg(0);
+  if (!in.read(text.data(), static_cast<std::streamsize>(text.size()))) return Status::Error(path + ": cannot read file");
   std::vector<Eigen::Vector3d> verts;
   std::vector<Eigen::Vector3i> tris;
-  std::string line;
   size_t line_no = 0;
-  while (std::getline(in, line)) {
+  std::vector<std::string_view> w;
+  std::vector<int> corners;
+  for (size_t pos = 0; pos < text.size();) {
+    size_t eol = text.find('\n', pos);
+    if (eol == std::string::npos) eol = text.size();
+    std::string_view line(text.data() + pos, eol - pos);
+    pos = eol + 1;
     ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    std::istringstream ls(line);
-    std::string tag;
-    if (!(ls >> tag) || tag[0] == '#') continue;
-    if (tag == "v") {
-      std::string t[3];
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    const int nw = SplitLine(line, &w);
+    if (nw == 0 || w[0][0] == '#') continue;
+    if (w[0] == "v") {
       Eigen::Vector3d p;
       for (int k = 0; k < 3; ++k) {
-        if (!(ls >> t[k]) || !ParseDouble(t[k], &p[k]))
-          return Status::Error(Where(path, line_no) + "vertex " + std::to_string(verts.size()) +
-                               ": expected three numbers, got '" + line + "'");
+        if (k + 1 >= nw || !ParseDouble(w[k + 1], &p[k]))
+          return Status::Error(Where(path, line_no) + "vertex " + std::to_string(verts.size()) + ": expected three numbers, got '" +
+                               std::string(line) + "'");
         if (!std::isfinite(p[k]))
-          return Status::Error(Where(path, line_no) + "vertex " + std::to_string(verts.size()) +
-                               " has a non-finite coordinate '" + t[k] + "'");
+          return Status::Error(Where(path, line_no) + "vertex " + std::to_string(verts.size()) + " has a non-finite coordinate '" +
+                               std::string(w[k + 1]) + "'");
       }
       verts.push_back(p);
-    } else if (tag == "f") {
-      std::vector<int> corners;
-      std::string tok;
-      while (ls >> tok) {
-        const std::string first = tok.substr(0, tok.find('/'));
+    } else if (w[0] == "f") {
+      corners.clear();
+      for (int k = 1; k < nw; ++k) {
+        const std::string_view first = w[k].substr(0, w[k].find('/'));
         long idx = 0;
         if (!ParseInt(first, &idx) || idx == 0)
-          return Status::Error(Where(path, line_no) + "face " + std::to_string(tris.size()) +
-                               ": bad vertex index '" + tok + "'");
+          return Status::Error(Where(path, line_no) + "face " + std::to_string(tris.size()) + ": bad vertex index '" + std::string(w[k]) + "'");
         // OBJ indices are 1-based; negative ones count back from the last vertex read so far.
         const long zero_based = idx > 0 ? idx - 1 : static_cast<long>(verts.size()) + idx;
         if (zero_based < 0 || zero_based > INT32_MAX)
-          return Status::Error(Where(path, line_no) + "face " + std::to_string(tris.size()) +
-                               ": vertex index " + std::to_string(idx) + " out of range");
+          return Status::Error(Where(path, line_no) + "face " + std::to_string(tris.size()) + ": vertex index " + std::to_string(idx) +
+                               " out of range");
         corners.push_back(static_cast<int>(zero_based));
       }
       if (corners.size() < 3)
-        return Status::Error(Where(path, line_no) + "face " + std::to_string(tris.size()) + " has " +
-                             std::to_string(corners.size()) + " corners, need at least 3");
+        return Status::Error(Where(path, line_no) + "face " + std::to_string(tris.size()) + " has " + std::to_string(corners.size()) +
+                             " corners, need at least 3");
       for (size_t k = 1; k + 1 < corners.size(); ++k) tris.emplace_back(corners[0], corners[k], corners[k + 1]);
     }
     // Other tags (vn, vt, o, g, s, usemtl, mtllib, l) carry nothing the simulator uses.

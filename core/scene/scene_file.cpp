@@ -159,33 +159,38 @@ Status ReadGarmentCutFromBody(const Reader& r, const json& g, const json& b, con
   motion.faces = rest->faces;
   motion.rest = rest->vertices;
   std::vector<std::string> names = {rest_file};
-  // Every other pose: same vertex count and the very same faces as the rest mesh.
-  auto read_pose = [&](const json& v, const std::string& key, Positions* out) -> Status {
-    Result<TriMesh> pose = r.Mesh(v, key);
-    if (!pose.ok()) return pose.status();
-    const std::string file = r.Resolve(v.get<std::string>());
-    names.push_back(file);
-    if (pose->vertices.rows() != motion.rest.rows())
-      return Status::Error(file + ": has " + std::to_string(pose->vertices.rows()) + " vertices but " + rest_file + " has " +
-                           std::to_string(motion.rest.rows()) + " (all poses must share one topology)");
-    if (pose->faces.rows() != motion.faces.rows())
-      return Status::Error(file + ": has " + std::to_string(pose->faces.rows()) + " faces but " + rest_file + " has " +
-                           std::to_string(motion.faces.rows()) + " (all poses must share one topology)");
-    for (Eigen::Index f = 0; f < motion.faces.rows(); ++f)
-      if (pose->faces.row(f) != motion.faces.row(f))
-        return Status::Error(file + ": face " + std::to_string(f) + " differs from face " + std::to_string(f) + " of " + rest_file +
-                             " (all poses must share one topology)");
-    *out = pose->vertices;
-    return Status::Ok();
-  };
-  KGD_RETURN_IF_ERROR(read_pose(b["deformed"], "body.deformed", &motion.deformed));
+  // Every other pose: same vertex count and the very same faces as the rest mesh. A motion is a dozen
+  // meshes of tens of MB of text: they are read in parallel, then checked in order.
+  std::vector<std::pair<std::string, const json*>> poses = {{"body.deformed", &b["deformed"]}};
   if (b.contains("frames")) {
     const json& fr = b["frames"];
     if (!fr.is_array() || fr.empty()) return r.Fail("body.frames", "must be a non-empty array of mesh file paths");
-    for (size_t i = 0; i < fr.size(); ++i) {
-      motion.frames.emplace_back();
-      KGD_RETURN_IF_ERROR(read_pose(fr[i], "body.frames[" + std::to_string(i) + "]", &motion.frames.back()));
-    }
+    for (size_t i = 0; i < fr.size(); ++i) poses.push_back({"body.frames[" + std::to_string(i) + "]", &fr[i]});
+  }
+  for (const auto& [key, v] : poses) {
+    if (!v->is_string()) return r.Fail(key, "must be a mesh file path");
+    names.push_back(r.Resolve(v->get<std::string>()));
+  }
+  const int n = static_cast<int>(poses.size());
+  std::vector<Result<TriMesh>> read(n, Status::Error(""));
+#pragma omp parallel for schedule(dynamic)
+  for (int i = 0; i < n; ++i) read[i] = ReadMesh(names[i + 1]);
+  for (int i = 0; i < n; ++i) {
+    if (!read[i].ok()) return read[i].status();
+    const TriMesh& pose = *read[i];
+    const std::string& file = names[i + 1];
+    if (pose.vertices.rows() != motion.rest.rows())
+      return Status::Error(file + ": has " + std::to_string(pose.vertices.rows()) + " vertices but " + rest_file + " has " +
+                           std::to_string(motion.rest.rows()) + " (all poses must share one topology)");
+    if (pose.faces.rows() != motion.faces.rows())
+      return Status::Error(file + ": has " + std::to_string(pose.faces.rows()) + " faces but " + rest_file + " has " +
+                           std::to_string(motion.faces.rows()) + " (all poses must share one topology)");
+    for (Eigen::Index f = 0; f < motion.faces.rows(); ++f)
+      if (pose.faces.row(f) != motion.faces.row(f))
+        return Status::Error(file + ": face " + std::to_string(f) + " differs from face " + std::to_string(f) + " of " + rest_file +
+                             " (all poses must share one topology)");
+    Positions& out = i == 0 ? motion.deformed : motion.frames.emplace_back();
+    out = std::move(read[i]->vertices);
   }
   KGD_RETURN_IF_ERROR(ValidateBodyMotion(motion, names));
   s->motion = std::move(motion);
