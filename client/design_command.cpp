@@ -452,8 +452,7 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
     o.sheet.seam_allowance_mm = ex->seam_allowance_mm;
     o.sheet.sheet_width_mm = ex->sheet_width_mm;
     o.sheet.mirror = !ex->no_mirror;
-    if (!ex->json)
-      o.progress = [](const std::string& stage, double fraction) { std::fprintf(stderr, "export: %3.0f%% %s\n", 100 * fraction, stage.c_str()); };
+    if (!ex->json) o.progress = PrintExportProgress;
     o.formats.clear();
     std::stringstream list(ex->formats);
     for (std::string f; std::getline(list, f, ',');)

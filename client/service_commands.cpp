@@ -544,6 +544,8 @@ void AddServiceCommands(CLI::App& app, int* exit_code) {
   gt->callback([c, exit_code] { *exit_code = RunGet(c->server, c->job, c->iteration, c->out, c->json); });
 }
 
+void PrintExportProgress(const std::string& stage, double fraction) { std::fprintf(stderr, "export: %3.0f%% %s\n", 100 * fraction, stage.c_str()); }
+
 int RunExportJob(const ExportJobRequest& r) {
   auto stub = Connect(r.server);
   if (!stub) return 2;
@@ -558,7 +560,12 @@ int RunExportJob(const ExportJobRequest& r) {
   req.set_sheet_width_mm(r.sheet_width_mm);
   req.set_no_mirror(r.no_mirror);
   v1::ExportDesignResponse resp;
-  const grpc::Status st = stub->ExportDesign(&ctx, req, &resp);
+  auto reader = stub->ExportDesign(&ctx, req);
+  for (v1::ExportDesignEvent e; reader->Read(&e);) {
+    if (e.has_files()) resp = std::move(*e.mutable_files());
+    else if (e.has_progress() && !r.json) PrintExportProgress(e.progress().stage(), e.progress().fraction());
+  }
+  const grpc::Status st = reader->Finish();
   if (!st.ok()) return FailRpc("export", r.server, st);
   std::vector<std::pair<std::string, std::string>> files(resp.files().begin(), resp.files().end());
   std::sort(files.begin(), files.end());

@@ -26,6 +26,9 @@ struct ExportJobRequest {
   bool no_mirror = false, json = false;
 };
 int RunExportJob(const ExportJobRequest& request);
+
+// One line on stderr as an export's stage starts: "export:  50% cutting and flattening the pattern".
+void PrintExportProgress(const std::string& stage, double fraction);
 std::string DefaultServer();
 // --server, --token and --tls-ca of a command that talks to the design server.
 void AddServerOptions(CLI::App* command, std::string* server, const std::string& what);

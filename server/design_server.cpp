@@ -73,10 +73,19 @@ class GrpcServices final : public v1::DesignService::Service, public v1::WorkerS
     const auto caller = CallerOf(service_, ctx, &st);
     return caller ? ToGrpc(service_.GetEvaluation(*caller, req->id(), out)) : st;
   }
-  grpc::Status ExportDesign(ServerContext* ctx, const v1::ExportDesignRequest* req, v1::ExportDesignResponse* out) override {
+  grpc::Status ExportDesign(ServerContext* ctx, const v1::ExportDesignRequest* req, grpc::ServerWriter<v1::ExportDesignEvent>* writer) override {
     grpc::Status st;
     const auto caller = CallerOf(service_, ctx, &st);
-    return caller ? ToGrpc(service_.ExportDesign(*caller, *req, out)) : st;
+    if (!caller) return st;
+    v1::ExportDesignEvent files;
+    st = ToGrpc(service_.ExportDesign(*caller, *req, files.mutable_files(), [writer](const v1::ExportProgress& p) {
+      v1::ExportDesignEvent e;
+      *e.mutable_progress() = p;
+      writer->Write(e);  // a client gone away only misses the progress; the export ends anyway
+    }));
+    if (!st.ok()) return st;
+    writer->Write(files);
+    return grpc::Status::OK;
   }
   grpc::Status WatchJob(ServerContext* ctx, const v1::WatchJobRequest* req, grpc::ServerWriter<v1::WatchJobEvent>* writer) override {
     grpc::Status st;

@@ -593,7 +593,8 @@ ServiceStatus JobService::GetEvaluation(const Caller& caller, int64_t id, v1::De
   return ServiceStatus::Ok();
 }
 
-ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDesignRequest& req, v1::ExportDesignResponse* out) {
+ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDesignRequest& req, v1::ExportDesignResponse* out,
+                                       const std::function<void(const v1::ExportProgress&)>& progress) {
   Impl& m = *impl_;
   v1::Job job;
   if (ServiceStatus st = m.FindJob(caller, req.id(), &job); !st.ok()) return st;
@@ -606,6 +607,13 @@ ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDes
   if (req.has_seam_allowance_mm()) o.sheet.seam_allowance_mm = req.seam_allowance_mm();
   if (req.has_sheet_width_mm()) o.sheet.sheet_width_mm = req.sheet_width_mm();
   o.sheet.mirror = !req.no_mirror();
+  if (progress)
+    o.progress = [&progress](const std::string& stage, double fraction) {
+      v1::ExportProgress p;
+      p.set_stage(stage);
+      p.set_fraction(fraction);
+      progress(p);
+    };
   // The caller may see this job (FindJob above): a cached export of it is theirs to have.
   char key[160];
   std::snprintf(key, sizeof key, "%lld/%d/%.17g/%.17g/%.17g/%d", static_cast<long long>(req.id()), k, o.cleaning.min_feature_m,

@@ -109,7 +109,9 @@ class JobService {
   // The finished design over the motion and beside the baselines (DIR/jobs/job-N.evaluation.h5).
   ServiceStatus GetEvaluation(const Caller& caller, int64_t id, v1::DesignEvaluation* evaluation);
   // Cut files of one stored iteration, by geometry alone (job/fabrication_export.h, ExportGeometry).
-  ServiceStatus ExportDesign(const Caller& caller, const v1::ExportDesignRequest& request, v1::ExportDesignResponse* response);
+  // `progress` (optional) is called as each stage of a computed export starts.
+  ServiceStatus ExportDesign(const Caller& caller, const v1::ExportDesignRequest& request, v1::ExportDesignResponse* response,
+                             const std::function<void(const v1::ExportProgress&)>& progress = nullptr);
   // Sends the job, its stored iterations from request.from_iteration(), then every new one and every
   // state change as they come, until the job ends (OK), `write` returns false (the client is gone:
   // OK) or `cancelled` returns true / the service stops (CANCELLED).

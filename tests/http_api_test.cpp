@@ -340,6 +340,17 @@ TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
   };
   EXPECT_EQ(served(after, "computed") - served(before, "computed"), 2) << "patches.svg, then report.json with other options";
   EXPECT_EQ(served(after, "cache") - served(before, "cache"), 2) << "patches.png, and kgd export with the same options";
+  EXPECT_EQ(exported.output.find("export: "), std::string::npos) << "an export from the cache has no stages to report:\n" << exported.output;
+  // An export the server computes streams its stages before the files.
+  const auto computed = cli_test::Kgd("export " + id + " --iteration " + n + " --seam-allowance-mm 12 --server " + Service().grpc() + " --out " + out + "-12");
+  ASSERT_EQ(computed.exit_code, 0) << computed.output;
+  size_t at = 0;
+  for (const char* stage : {"export:   0% cleaning the design for manufacture", "export:  50% cutting and flattening the pattern",
+                            "export:  85% nesting and drawing the sheets"}) {
+    at = computed.output.find(stage, at);
+    ASSERT_NE(at, std::string::npos) << stage << " missing or out of order in:\n" << computed.output;
+  }
+  EXPECT_TRUE(fs::exists(out + "-12/pattern.dxf"));
   const auto unknown = cli_test::Kgd("export 987654 --server " + Service().grpc() + " --out " + out + "-unknown");
   EXPECT_EQ(unknown.exit_code, 2) << unknown.output;
   EXPECT_NE(unknown.output.find("987654"), std::string::npos) << unknown.output;

@@ -205,8 +205,12 @@ TEST_F(Security, AUserCannotSeeWatchFetchExportOrCancelAnothersJobOnAnyRoute) {
     v1::ExportDesignRequest ex;
     ex.set_id(job_id);
     ex.set_iteration(-1);
-    v1::ExportDesignResponse exr;
-    out.push_back({"ExportDesign", stub->ExportDesign(As(token).get(), ex, &exr)});
+    auto ex_ctx = As(token);
+    auto ex_reader = stub->ExportDesign(ex_ctx.get(), ex);
+    v1::ExportDesignEvent exr;
+    while (ex_reader->Read(&exr)) {
+    }
+    out.push_back({"ExportDesign", ex_reader->Finish()});
     v1::WatchJobRequest w;
     w.set_id(job_id);
     auto ctx = As(token);

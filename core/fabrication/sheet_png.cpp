@@ -12,15 +12,25 @@ namespace {
 
 using Rgb = std::array<uint8_t, 3>;
 
+// An image of a few flat colours (no blending), kept as indices into a palette: a third of the bytes
+// of RGB to compress, and a PNG to match.
 struct Canvas {
   int width = 0, height = 0;
   double scale = 1, top_mm = 0;  // pixels per mm; the sheet's y (up) of the image's first row
-  std::vector<uint8_t> rgb;
+  std::vector<uint8_t> index;    // per pixel, into palette; 0 is the paper
+  std::vector<Rgb> palette = {{255, 255, 255}};
 
   Eigen::Vector2d Pixel(const Eigen::Vector2d& mm) const { return {mm.x() * scale, (top_mm - mm.y()) * scale}; }
   void Put(int x, int y, const Rgb& c) {
     if (x < 0 || y < 0 || x >= width || y >= height) return;
-    std::copy(c.begin(), c.end(), rgb.begin() + 3 * (static_cast<size_t>(y) * width + x));
+    index[static_cast<size_t>(y) * width + x] = Colour(c);
+  }
+  uint8_t Colour(const Rgb& c) {
+    const auto at = std::find(palette.begin(), palette.end(), c);
+    if (at != palette.end()) return static_cast<uint8_t>(at - palette.begin());
+    if (palette.size() == 256) return 0;  // a sheet has a dozen colours at most
+    palette.push_back(c);
+    return static_cast<uint8_t>(palette.size() - 1);
   }
   // A segment `thickness` pixels wide (square brush).
   void Line(Eigen::Vector2d a, Eigen::Vector2d b, const Rgb& c, int thickness) {
@@ -64,7 +74,7 @@ Result<std::string> SheetPng(const Sheet& sheet, double px_per_mm) {
   c.top_mm = h_mm;
   c.width = std::max(1, static_cast<int>(std::ceil(sheet.width_mm * scale)));
   c.height = std::max(1, static_cast<int>(std::ceil(h_mm * scale)));
-  c.rgb.assign(static_cast<size_t>(c.width) * c.height * 3, 255);
+  c.index.assign(static_cast<size_t>(c.width) * c.height, 0);
   auto pixels = [&](const SheetPath& p) {
     std::vector<Eigen::Vector2d> out;
     for (const auto& q : p.points) out.push_back(c.Pixel(q));
@@ -88,11 +98,14 @@ Result<std::string> SheetPng(const Sheet& sheet, double px_per_mm) {
   image.version = PNG_IMAGE_VERSION;
   image.width = static_cast<png_uint_32>(c.width);
   image.height = static_cast<png_uint_32>(c.height);
-  image.format = PNG_FORMAT_RGB;
+  image.format = PNG_FORMAT_RGB_COLORMAP;
+  image.colormap_entries = static_cast<png_uint_32>(c.palette.size());
+  std::vector<uint8_t> colormap;
+  for (const Rgb& rgb : c.palette) colormap.insert(colormap.end(), rgb.begin(), rgb.end());
   // Encoded once into a buffer of the largest size it can take (asking for the size first encodes twice).
   std::string bytes(PNG_IMAGE_PNG_SIZE_MAX(image), '\0');
   png_alloc_size_t size = bytes.size();
-  if (!png_image_write_to_memory(&image, bytes.data(), &size, 0, c.rgb.data(), 0, nullptr))
+  if (!png_image_write_to_memory(&image, bytes.data(), &size, 0, c.index.data(), 0, colormap.data()))
     return Status::Error(std::string("PNG preview: ") + image.message);
   bytes.resize(size);
   return bytes;
