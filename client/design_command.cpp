@@ -1,6 +1,6 @@
 #include "client/design_command.h"
 
-#include "client/cost_calibration.h"
+#include "job/cost_calibration.h"
 
 #include "core/beso/quality.h"
 
@@ -119,8 +119,8 @@ int RunDesign(const DesignOptions& o) {
                                                  .builtin_body = false,
                                                  .quality = quality.ok() ? *quality : Quality::kStandard},
                                                 settings);
-  const MachineFactor machine = ReadMachineFactor();
-  const double predicted_s = machine.factor * (cost.iteration0_s + cost.iterations * cost.per_iteration_s);
+  const MachineFactor machine = ReadMachineFactor(LocalCostCalibrationFile());
+  const double predicted_s = machine.factor * cost.solves_s(cost.iterations);
   if (!o.json && !resume) {
     const int frames = scene.motion ? static_cast<int>(scene.motion->frames.size()) : 0;
     char calibrated[96];
@@ -198,7 +198,7 @@ int RunDesign(const DesignOptions& o) {
   const BesoEnd how = BesoEndOf(metrics, settings, job->header.rest_area_m2.sum());
   const std::string why = DescribeBesoEnd(how, metrics, settings);
   // A whole job teaches the cost model this machine's speed (a resumed one ran only part of it).
-  if (!resume && end.iteration >= 1) RecordDesignTime(cost.iteration0_s + end.iteration * cost.per_iteration_s, elapsed);
+  if (!resume && end.iteration >= 1) RecordDesignTime(LocalCostCalibrationFile(), cost.solves_s(end.iteration), elapsed);
   if (o.json || !bar) {
     nlohmann::ordered_json j{{"event", "done"}, {"file", path}, {"iterations", end.iteration + 1}, {"area_fraction", end.area_fraction},
                              {"density_ratio", end.density_ratio}, {"seconds", elapsed}, {"end", why}};

@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "client/body_command.h"
-#include "client/cost_calibration.h"
+#include "job/cost_calibration.h"
 #include "core/mesh/mesh_io.h"
 #include "core/scene/paper_scenes.h"
 #include "core/scene/scene.h"
@@ -262,8 +262,8 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
 
   CLI::App* scenes = app.add_subcommand("scenes", "List the built-in scenes");
   scenes->callback([exit_code] {
-    // The solves' share of each prediction is this machine's (client/cost_calibration.h).
-    const MachineFactor machine = ReadMachineFactor();
+    // The solves' share of each prediction is this machine's (job/cost_calibration.h).
+    const MachineFactor machine = ReadMachineFactor(LocalCostCalibrationFile());
     std::printf("%-26s %-12s %-7s %-7s %-7s %-18s %s\n", "name", "garment", "faces", "budget", "frames", "predicted (s)", "description");
     for (const BuiltinSceneInfo& s : BuiltinSceneInfos()) {
       // The whole design job per preset (draft / standard / precise), core/beso/quality.h.
@@ -272,13 +272,10 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
       settings.budget = s.budget < 1 ? s.budget : settings.budget;
       for (const QualityPreset& q : QualityPresets())
         predicted += (predicted.empty() ? "" : "/") +
-                     std::to_string(static_cast<int>(std::lround([&] {
-                       JobCostPrediction p = PredictJobCost(
-                           {.garment_faces = s.garment_faces, .frames = s.frames, .builtin_body = s.parametric_body, .quality = q.quality}, settings);
-                       p.iteration0_s *= machine.factor;
-                       p.per_iteration_s *= machine.factor;
-                       return p.total_s();
-                     }())));
+                     std::to_string(static_cast<int>(std::lround(
+                         PredictJobCost({.garment_faces = s.garment_faces, .frames = s.frames, .builtin_body = s.parametric_body, .quality = q.quality},
+                                        settings)
+                             .total_s(machine.factor))));
       std::printf("%-26s %-12s %-7d %-7.2f %-7s %-18s %s\n", s.name.c_str(), s.garment.empty() ? "-" : s.garment.c_str(), s.garment_faces,
                   s.budget, s.frames ? std::to_string(s.frames).c_str() : "-", predicted.c_str(), s.description.c_str());
     }

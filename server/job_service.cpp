@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "core/scene/builtin_scenes.h"
+#include "job/cost_calibration.h"
 #include "job/fabrication_export.h"
 #include "proto/job_spec.h"
 #include "proto/records.h"
@@ -127,6 +128,27 @@ struct JobService::Impl {
   std::mutex exports_mu;
   std::vector<std::pair<std::string, std::shared_ptr<const ExportFiles>>> exports;
   static constexpr size_t kExportsKept = 4;
+
+  // These workers' speed against the cost model's reference machine (job/cost_calibration.h), learned
+  // from the jobs they finish; ListScenes' predictions use it.
+  std::mutex calibration_mu;
+  std::string CostCalibrationFile() const { return (fs::path(options.data_dir) / "cost_calibration.json").string(); }
+  void LearnFromFinishedJob(int64_t id) {
+    Result<std::optional<v1::Job>> job = store->GetJob(id);
+    if (!job.ok() || !*job || (*job)->iterations() < 2 || (*job)->garment_faces() <= 0) return;
+    const v1::Job& j = **job;
+    Result<std::vector<v1::IterationMetrics>> metrics = store->Metrics(id, 0, j.iterations());
+    if (!metrics.ok()) return;
+    // Every stored iteration's time, whichever worker measured it (a resumed job's included).
+    double measured_s = 0;
+    for (const v1::IterationMetrics& it : *metrics) measured_s += it.total_s();
+    const std::string& preset = j.spec().optimizer().quality();
+    const Result<Quality> quality = QualityFromName(preset.empty() ? "standard" : preset);
+    const JobCostPrediction cost = PredictJobCost(
+        {.garment_faces = j.garment_faces(), .frames = 0, .builtin_body = false, .quality = quality.ok() ? *quality : Quality::kStandard}, {});
+    std::lock_guard lock(calibration_mu);
+    RecordDesignTime(CostCalibrationFile(), cost.solves_s(j.iterations() - 1), measured_s);
+  }
 
   // Limits kept in memory: open watches per job, and each user's job-creation bucket.
   std::mutex limits_mu;
@@ -431,6 +453,12 @@ std::string JobService::MetricsText() {
 }
 
 ServiceStatus JobService::ListScenes(v1::ListScenesResponse* out) {
+  const MachineFactor machine = [&] {
+    std::lock_guard lock(impl_->calibration_mu);
+    return ReadMachineFactor(impl_->CostCalibrationFile());
+  }();
+  out->set_machine_factor(machine.factor);
+  out->set_machine_factor_jobs(machine.jobs);
   for (const BuiltinSceneInfo& s : BuiltinSceneInfos()) {
     v1::BuiltinScene* b = out->add_scenes();
     b->set_name(s.name);
@@ -447,7 +475,7 @@ ServiceStatus JobService::ListScenes(v1::ListScenesResponse* out) {
     for (const QualityPreset& q : QualityPresets())
       (*b->mutable_predicted_job_s())[q.name] =
           PredictJobCost({.garment_faces = s.garment_faces, .frames = s.frames, .builtin_body = s.parametric_body, .quality = q.quality}, settings)
-              .total_s();
+              .total_s(machine.factor);
   }
   for (const MeasurementRange& r : BodyMeasurementRanges()) {
     v1::BodyMeasurement* m = out->add_body_measurements();
@@ -765,6 +793,7 @@ ServiceStatus JobService::RunJob(const Caller& caller, const std::function<bool(
   m.CloseFile(job_id, lease_id);
   Result<v1::JobState> state = m.store->EndLease(job_id, lease_id, end, failure, Now());
   if (state.ok()) m.Log("job " + std::to_string(job_id) + " " + v1::JobState_Name(*state) + (failure.empty() ? "" : " (" + failure + ")"));
+  if (state.ok() && *state == v1::SUCCEEDED) m.LearnFromFinishedJob(job_id);
   m.Notify();
   --m.active_streams;
   return cancelled() ? Error(ServiceCode::kCancelled, "stream ended") : ServiceStatus::Ok();

@@ -15,6 +15,7 @@
 #include <sstream>
 #include <thread>
 
+#include "core/beso/quality.h"
 #include "kgd/v1/kgd.pb.h"
 #include "tests/child_process.h"
 #include "tests/kgd_cli.h"
@@ -208,6 +209,23 @@ TEST_F(HttpApi, AWatchDroppedMidJobResumesWithLastEventIdWithNoGapAndNoDuplicate
   const v1::Job done = Get(id);
   EXPECT_EQ(done.state(), v1::SUCCEEDED) << done.failure();
   ASSERT_EQ(static_cast<int>(iterations.size()), done.iterations());
+  // A finished job teaches the cost model these workers' speed: the predictions are theirs.
+  v1::ListScenesResponse scenes;
+  EXPECT_TRUE(WaitFor(
+      [&] {
+        scenes = Parse<v1::ListScenesResponse>(Service().Client().Get("/v1/scenes")->body);
+        return scenes.machine_factor_jobs() >= 1;
+      },
+      10));
+  EXPECT_TRUE(scenes.machine_factor() > 1.0 / 20 && scenes.machine_factor() < 20) << scenes.machine_factor();
+  EXPECT_TRUE(fs::exists(Service().dir() + "/data/cost_calibration.json"));
+  for (const v1::BuiltinScene& b : scenes.scenes()) {
+    if (b.name() != "knee_flexion") continue;
+    BesoSettings settings;
+    settings.budget = b.budget();
+    const JobCostPrediction reference = PredictJobCost({.garment_faces = b.garment_faces(), .frames = b.frames(), .builtin_body = true}, settings);
+    EXPECT_NEAR(b.predicted_job_s().at("standard"), reference.total_s(scenes.machine_factor()), 1e-6 * reference.total_s());
+  }
   for (int k = 0; k < static_cast<int>(iterations.size()); ++k) EXPECT_EQ(iterations[k], k) << "a gap or a duplicate";
   // The resumed stream's last job event says the job ended.
   v1::Job last_job;

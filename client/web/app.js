@@ -34,6 +34,7 @@ function budgetOf(spec) {
 async function loadScenes() {
   const r = await api.scenes();
   state.scenes = r.scenes || [];
+  state.machineFactorJobs = r.machineFactorJobs || 0;
   state.measurements = r.bodyMeasurements || [];
   const sel = $('scene');
   sel.innerHTML = '';
@@ -66,11 +67,13 @@ function sceneChanged() {
   showPrediction();
 }
 
-// The server's cost model for the chosen scene and preset (a built-in scene on the default body).
+// The server's cost model for the chosen scene and preset (a built-in scene on the default body), on
+// its workers once they have finished a job.
 function showPrediction() {
   const s = state.scenes.find((x) => x.name === $('scene').value);
   const t = s?.predictedJobS?.[$('quality').value];
-  $('predicted-time').textContent = t ? `Predicted time on two cores: about ${t < 90 ? `${Math.round(t)} s` : `${Math.round(t / 60)} min`}` : '';
+  const where = state.machineFactorJobs ? "on this server's workers" : 'on two cores';
+  $('predicted-time').textContent = t ? `Predicted time ${where}: about ${t < 90 ? `${Math.round(t)} s` : `${Math.round(t / 60)} min`}` : '';
 }
 
 function clearErrors() {

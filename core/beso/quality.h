@@ -43,7 +43,10 @@ struct JobCostPrediction {
   double iteration0_s = 0;     // the fully reinforced garment, solved cold
   int iterations = 0;          // BESO iterations to the budget and a flat objective
   double per_iteration_s = 0;  // a warm re-solve and a design update
-  double total_s() const { return setup_s + iteration0_s + iterations * per_iteration_s; }
+  // The solves of iteration 0 and `later` iterations after it.
+  double solves_s(int later) const { return iteration0_s + later * per_iteration_s; }
+  // The whole job, its solves taking `machine_factor` times the reference machine's time (MachineFactor).
+  double total_s(double machine_factor = 1) const { return setup_s + machine_factor * solves_s(iterations); }
 };
 
 // A prediction on this project's reference machine (2 cores; docs/ACCURACY.md states the fit and its

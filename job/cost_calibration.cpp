@@ -1,4 +1,4 @@
-#include "client/cost_calibration.h"
+#include "job/cost_calibration.h"
 
 #include <unistd.h>
 
@@ -9,18 +9,14 @@
 
 #include "core/scene/scene_cache.h"
 
-namespace kgd::cli {
-namespace {
+namespace kgd {
 
-std::string CalibrationFile() {
+std::string LocalCostCalibrationFile() {
   const std::string dir = SceneCacheDir();
   return dir.empty() ? "" : (std::filesystem::path(dir) / "cost_calibration.json").string();
 }
 
-}  // namespace
-
-MachineFactor ReadMachineFactor() {
-  const std::string path = CalibrationFile();
+MachineFactor ReadMachineFactor(const std::string& path) {
   if (path.empty()) return {};
   std::ifstream in(path);
   if (!in) return {};
@@ -33,10 +29,9 @@ MachineFactor ReadMachineFactor() {
   return {.factor = factor, .jobs = jobs, .weight_s = weight_s};
 }
 
-void RecordDesignTime(double predicted_s, double measured_s) {
-  const std::string path = CalibrationFile();
+void RecordDesignTime(const std::string& path, double predicted_s, double measured_s) {
   if (path.empty()) return;
-  const MachineFactor f = LearnMachineFactor(ReadMachineFactor(), predicted_s, measured_s);
+  const MachineFactor f = LearnMachineFactor(ReadMachineFactor(path), predicted_s, measured_s);
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
   // Another kgd may write at the same time: each writes its own temporary file, and the last rename wins.
@@ -53,4 +48,4 @@ void RecordDesignTime(double predicted_s, double measured_s) {
   if (ec) std::filesystem::remove(tmp, ec);
 }
 
-}  // namespace kgd::cli
+}  // namespace kgd

@@ -1,0 +1,26 @@
+// A machine's factor on the job cost model (core/beso/quality.h: LearnMachineFactor), kept in a small
+// JSON file: by `kgd design` as cost_calibration.json in the scene cache's folder
+// (core/scene/scene_cache.h), and by the design server in its data folder from the jobs its workers
+// finish. The time predicted before a job starts is then this machine's (or these workers') after the
+// first finished job. A missing or damaged file reads as no jobs.
+#pragma once
+
+#include <string>
+
+#include "core/beso/quality.h"
+
+namespace kgd {
+
+// The local file: cost_calibration.json in the scene cache's folder; empty when the cache is off
+// (KGD_CACHE_DIR=off), and then nothing is kept.
+std::string LocalCostCalibrationFile();
+
+// The factor kept in `path` (no jobs when `path` is empty, missing or damaged).
+MachineFactor ReadMachineFactor(const std::string& path);
+
+// After a design job from iteration 0: `predicted_s` the reference prediction of its solves for the
+// iterations it ran, `measured_s` what they took; updates `path` (atomically: a temporary file, then a
+// rename). Errors are ignored (a prediction is a courtesy).
+void RecordDesignTime(const std::string& path, double predicted_s, double measured_s);
+
+}  // namespace kgd
