@@ -655,7 +655,7 @@ ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDes
       std::rotate(m.exports.begin(), it, it + 1);
     }
   }
-  m.metrics.ExportServed(files != nullptr);
+  if (files) m.metrics.ExportServed(/*from_cache=*/true);
   if (!files) {
     Result<DesignFile> f = [&] {
       std::lock_guard lock(m.commit_mu);
@@ -665,6 +665,7 @@ ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDes
     Result<ExportFiles> made = ExportGeometry(f->header, f->iterations[k], o);
     if (!made.ok()) return Error(ServiceCode::kInvalidArgument, "job " + std::to_string(req.id()) + ": " + made.message());
     files = std::make_shared<const ExportFiles>(std::move(made).value());
+    m.metrics.ExportServed(/*from_cache=*/false);  // counted once made: a failed export is no export
     std::lock_guard lock(m.exports_mu);
     m.exports.insert(m.exports.begin(), {key, files});
     if (m.exports.size() > Impl::kExportsKept) m.exports.pop_back();
