@@ -1,10 +1,9 @@
 #include "client/design_command.h"
 
-#include "job/cost_calibration.h"
-
 #include "core/beso/quality.h"
 
 #include "client/service_commands.h"
+#include "job/cost_calibration.h"
 #include "job/fabrication_export.h"
 
 #include <unistd.h>

@@ -655,8 +655,9 @@ ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDes
       std::rotate(m.exports.begin(), it, it + 1);
     }
   }
-  if (files) m.metrics.ExportServed(/*from_cache=*/true);
-  if (!files) {
+  if (files) {
+    m.metrics.ExportServed(/*from_cache=*/true);
+  } else {
     Result<DesignFile> f = [&] {
       std::lock_guard lock(m.commit_mu);
       return ReadDesignFile(m.FilePath(req.id()), {.arrays = true, .only_iteration = k});

@@ -285,7 +285,6 @@ Result<std::unique_ptr<DesignFileReader>> OpenDesignFileReader(const std::string
   return reader;
 }
 
-// Reads iteration row i: its metrics, and its arrays when `arrays`. Errors name the row.
 // The metrics of rows [first, first + rows) into it[0, rows): one read per metric, not per row (a
 // long job's file holds thousands of rows).
 Status ReadMetricRows(const DesignFileReader& r, hsize_t first, hsize_t rows, BesoIteration* it) {
@@ -322,6 +321,7 @@ Status ReadMetricRows(const DesignFileReader& r, hsize_t first, hsize_t rows, Be
   return Status::Ok();
 }
 
+// Reads iteration row i: its metrics, and its arrays when `arrays`. Errors name the row.
 Status ReadIteration(const DesignFileReader& r, hsize_t i, bool arrays, BesoIteration* it) {
   KGD_RETURN_IF_ERROR(ReadMetricRows(r, i, 1, it));
   if (!arrays) return Status::Ok();

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string_view>
@@ -331,6 +332,9 @@ Result<TriMesh> ReadPly(const std::string& path) {
 }  // namespace
 
 Result<TriMesh> ReadMesh(const std::string& path) {
+  // A folder opens as a stream, and its size reads as anything.
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) return Status::Error(path + ": is a folder, not a mesh file");
   const std::string lower = Lower(path);
   if (EndsWith(lower, ".obj")) return ReadObj(path);
   if (EndsWith(lower, ".ply")) return ReadPly(path);

@@ -58,6 +58,8 @@ TEST(MeshIo, ErrorsNameFileAndLine) {
   Write(Temp("bad4.obj"), "v 0 0 0\nf 1 2\n");
   EXPECT_NE(ReadMesh(Temp("bad4.obj")).message().find("bad4.obj:2: face 0 has 2 corners"), std::string::npos);
   EXPECT_NE(ReadMesh(Temp("missing.obj")).message().find("cannot open"), std::string::npos);
+  std::filesystem::create_directories(Temp("folder.obj"));
+  EXPECT_NE(ReadMesh(Temp("folder.obj")).message().find("folder.obj: is a folder"), std::string::npos);
   EXPECT_NE(ReadMesh(Temp("x.stl")).message().find("unknown mesh format"), std::string::npos);
   Write(Temp("trunc.ply"), "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
                            "property double z\nend_header\n");
