@@ -51,7 +51,8 @@ study: build
 	bash scripts/design_study.sh $(BUILD)
 
 # What accuracy costs in time (docs/ACCURACY.md and its plots, generated): the arm-flexion design at seven
-# solver tolerances, two model variants, three resolutions and three solver methods (about an hour).
+# solver tolerances, two model variants, `precise` repeated, garment and body resolutions, three solver
+# methods, and the frames a design is evaluated over (about an hour and a half).
 study-accuracy: build
 	$(BUILD)/client/kgd study accuracy arm_flexion --out $(BUILD)/study-accuracy --image-prefix images/accuracy/
 	mkdir -p docs/images/accuracy
