@@ -112,11 +112,12 @@ int RunDesign(const DesignOptions& o) {
   std::signal(SIGTERM, OnInterrupt);
 
   // What the job should take (core/beso/quality.h) on this machine, before it starts.
-  const Result<Quality> quality = QualityFromName(optimizer.quality().empty() ? "standard" : optimizer.quality());
-  const JobCostPrediction cost = PredictJobCost({.garment_faces = static_cast<int>(scene.garment.faces.rows()),
+  const Quality quality = QualityOfJob(optimizer.quality());
+  const int garment_faces = static_cast<int>(scene.garment.faces.rows());
+  const JobCostPrediction cost = PredictJobCost({.garment_faces = garment_faces,
                                                  .frames = 0,  // the scene is built: its set-up is spent
                                                  .builtin_body = false,
-                                                 .quality = quality.ok() ? *quality : Quality::kStandard},
+                                                 .quality = quality},
                                                 settings);
   const MachineFactor machine = ReadMachineFactor(LocalCostCalibrationFile());
   const double predicted_s = machine.factor * cost.solves_s(cost.iterations);
@@ -126,7 +127,7 @@ int RunDesign(const DesignOptions& o) {
     if (machine.jobs > 0) std::snprintf(calibrated, sizeof calibrated, "; this machine: %.2fx the reference, from %d jobs", machine.factor, machine.jobs);
     else std::snprintf(calibrated, sizeof calibrated, "; the reference machine's until a job finishes here");
     std::printf("design %s -> %s (budget %.3g, %s, %d frames): predicted about %.0f s (%d iterations of %.3f s%s)\n", scene.name.c_str(),
-                path.c_str(), settings.budget, PresetOf(quality.ok() ? *quality : Quality::kStandard).name, frames, predicted_s, cost.iterations,
+                path.c_str(), settings.budget, PresetOf(quality).name, frames, predicted_s, cost.iterations,
                 machine.factor * cost.per_iteration_s, calibrated);
   } else if (!bar && !o.json) {
     std::printf("design %s -> %s (budget %.3g)\n", scene.name.c_str(), path.c_str(), settings.budget);
@@ -197,7 +198,7 @@ int RunDesign(const DesignOptions& o) {
   const BesoEnd how = BesoEndOf(metrics, settings, job->header.rest_area_m2.sum());
   const std::string why = DescribeBesoEnd(how, metrics, settings);
   // A whole job teaches the cost model this machine's speed (a resumed one ran only part of it).
-  if (!resume && end.iteration >= 1) RecordDesignTime(LocalCostCalibrationFile(), cost.solves_s(end.iteration), elapsed);
+  if (!resume && end.iteration >= 1) RecordDesignTime(LocalCostCalibrationFile(), PredictedSolvesSeconds(garment_faces, quality, end.iteration), elapsed);
   if (o.json || !bar) {
     nlohmann::ordered_json j{{"event", "done"}, {"file", path}, {"iterations", end.iteration + 1}, {"area_fraction", end.area_fraction},
                              {"density_ratio", end.density_ratio}, {"seconds", elapsed}, {"end", why}};

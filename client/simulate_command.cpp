@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <optional>
 #include <nlohmann/json.hpp>
@@ -267,15 +268,10 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
     std::printf("%-26s %-12s %-7s %-7s %-7s %-18s %s\n", "name", "garment", "faces", "budget", "frames", "predicted (s)", "description");
     for (const BuiltinSceneInfo& s : BuiltinSceneInfos()) {
       // The whole design job per preset (draft / standard / precise), core/beso/quality.h.
+      const std::map<std::string, double> seconds = PredictedSceneSeconds(s, machine.factor);
       std::string predicted;
-      BesoSettings settings;
-      settings.budget = s.budget < 1 ? s.budget : settings.budget;
       for (const QualityPreset& q : QualityPresets())
-        predicted += (predicted.empty() ? "" : "/") +
-                     std::to_string(static_cast<int>(std::lround(
-                         PredictJobCost({.garment_faces = s.garment_faces, .frames = s.frames, .builtin_body = s.parametric_body, .quality = q.quality},
-                                        settings)
-                             .total_s(machine.factor))));
+        predicted += (predicted.empty() ? "" : "/") + std::to_string(static_cast<int>(std::lround(seconds.at(q.name))));
       std::printf("%-26s %-12s %-7d %-7.2f %-7s %-18s %s\n", s.name.c_str(), s.garment.empty() ? "-" : s.garment.c_str(), s.garment_faces,
                   s.budget, s.frames ? std::to_string(s.frames).c_str() : "-", predicted.c_str(), s.description.c_str());
     }

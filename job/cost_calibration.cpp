@@ -29,6 +29,27 @@ MachineFactor ReadMachineFactor(const std::string& path) {
   return {.factor = factor, .jobs = jobs, .weight_s = weight_s};
 }
 
+Quality QualityOfJob(const std::string& name) {
+  const Result<Quality> q = QualityFromName(name);
+  return q.ok() ? *q : Quality::kStandard;
+}
+
+double PredictedSolvesSeconds(int garment_faces, Quality quality, int later) {
+  // The solves' share does not depend on the budget (BesoSettings): only the iteration count would.
+  return PredictJobCost({.garment_faces = garment_faces, .frames = 0, .builtin_body = false, .quality = quality}, {}).solves_s(later);
+}
+
+std::map<std::string, double> PredictedSceneSeconds(const BuiltinSceneInfo& scene, double machine_factor) {
+  BesoSettings settings;
+  settings.budget = scene.budget < 1 ? scene.budget : settings.budget;
+  std::map<std::string, double> out;
+  for (const QualityPreset& q : QualityPresets())
+    out[q.name] = PredictJobCost({.garment_faces = scene.garment_faces, .frames = scene.frames, .builtin_body = scene.parametric_body, .quality = q.quality},
+                                 settings)
+                      .total_s(machine_factor);
+  return out;
+}
+
 void RecordDesignTime(const std::string& path, double predicted_s, double measured_s) {
   if (path.empty()) return;
   const MachineFactor f = LearnMachineFactor(ReadMachineFactor(path), predicted_s, measured_s);

@@ -5,9 +5,11 @@
 // first finished job. A missing or damaged file reads as no jobs.
 #pragma once
 
+#include <map>
 #include <string>
 
 #include "core/beso/quality.h"
+#include "core/scene/builtin_scenes.h"
 
 namespace kgd {
 
@@ -17,6 +19,18 @@ std::string LocalCostCalibrationFile();
 
 // The factor kept in `path` (no jobs when `path` is empty, missing or damaged).
 MachineFactor ReadMachineFactor(const std::string& path);
+
+// The quality a job spec names (JobSpec.optimizer.quality): empty or unknown is standard, the default.
+Quality QualityOfJob(const std::string& name);
+
+// The reference machine's prediction of a design job's solves on a garment of `garment_faces`: iteration
+// 0 and `later` iterations after it (JobCostPrediction::solves_s), what a finished job's time is learned
+// against.
+double PredictedSolvesSeconds(int garment_faces, Quality quality, int later);
+
+// A built-in scene's whole design job per preset name (draft, standard, precise) at its budget, its
+// solves at `machine_factor` times the reference machine's: what `kgd scenes` and the web form show.
+std::map<std::string, double> PredictedSceneSeconds(const BuiltinSceneInfo& scene, double machine_factor);
 
 // After a design job from iteration 0: `predicted_s` the reference prediction of its solves for the
 // iterations it ran, `measured_s` what they took; updates `path` (atomically: a temporary file, then a

@@ -142,12 +142,9 @@ struct JobService::Impl {
     // Every stored iteration's time, whichever worker measured it (a resumed job's included).
     double measured_s = 0;
     for (const v1::IterationMetrics& it : *metrics) measured_s += it.total_s();
-    const std::string& preset = j.spec().optimizer().quality();
-    const Result<Quality> quality = QualityFromName(preset.empty() ? "standard" : preset);
-    const JobCostPrediction cost = PredictJobCost(
-        {.garment_faces = j.garment_faces(), .frames = 0, .builtin_body = false, .quality = quality.ok() ? *quality : Quality::kStandard}, {});
+    const double predicted_s = PredictedSolvesSeconds(j.garment_faces(), QualityOfJob(j.spec().optimizer().quality()), j.iterations() - 1);
     std::lock_guard lock(calibration_mu);
-    RecordDesignTime(CostCalibrationFile(), cost.solves_s(j.iterations() - 1), measured_s);
+    RecordDesignTime(CostCalibrationFile(), predicted_s, measured_s);
   }
 
   // Limits kept in memory: open watches per job, and each user's job-creation bucket.
@@ -470,12 +467,7 @@ ServiceStatus JobService::ListScenes(v1::ListScenesResponse* out) {
     b->set_parametric_body(s.parametric_body);
     b->set_garment_faces(s.garment_faces);
     b->set_garment_area_m2(s.garment_area_m2);
-    BesoSettings settings;
-    settings.budget = s.budget < 1 ? s.budget : settings.budget;
-    for (const QualityPreset& q : QualityPresets())
-      (*b->mutable_predicted_job_s())[q.name] =
-          PredictJobCost({.garment_faces = s.garment_faces, .frames = s.frames, .builtin_body = s.parametric_body, .quality = q.quality}, settings)
-              .total_s(machine.factor);
+    for (const auto& [preset, seconds] : PredictedSceneSeconds(s, machine.factor)) (*b->mutable_predicted_job_s())[preset] = seconds;
   }
   for (const MeasurementRange& r : BodyMeasurementRanges()) {
     v1::BodyMeasurement* m = out->add_body_measurements();
