@@ -1,7 +1,5 @@
 #include "server/job_service.h"
 
-#include "core/beso/quality.h"
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -9,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <future>
 #include <map>
 #include <mutex>
 #include <sstream>
@@ -125,8 +124,15 @@ struct JobService::Impl {
 
   // The last few exports (ExportDesign), most recent first: the web page asks for each cut file of an
   // iteration separately, and a stored iteration never changes, so they share one export.
+  // An export being made, by the request that made it first; the same request arriving meanwhile (the
+  // page's downloads of one iteration, fired together) waits for it instead of making it again.
+  struct ExportOutcome {
+    ServiceStatus status;
+    std::shared_ptr<const ExportFiles> files;
+  };
   std::mutex exports_mu;
   std::vector<std::pair<std::string, std::shared_ptr<const ExportFiles>>> exports;
+  std::map<std::string, std::shared_future<ExportOutcome>> exports_in_progress;
   static constexpr size_t kExportsKept = 4;
 
   // These workers' speed against the cost model's reference machine (job/cost_calibration.h), learned
@@ -639,29 +645,54 @@ ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDes
   std::snprintf(key, sizeof key, "%lld/%d/%.17g/%.17g/%.17g/%d", static_cast<long long>(req.id()), k, o.cleaning.min_feature_m,
                 o.sheet.seam_allowance_mm, o.sheet.sheet_width_mm, o.sheet.mirror ? 1 : 0);
   std::shared_ptr<const ExportFiles> files;
+  std::shared_future<Impl::ExportOutcome> in_progress;
+  std::promise<Impl::ExportOutcome> made_here;
   {
     std::lock_guard lock(m.exports_mu);
     const auto it = std::find_if(m.exports.begin(), m.exports.end(), [&](const auto& e) { return e.first == key; });
     if (it != m.exports.end()) {
       files = it->second;
       std::rotate(m.exports.begin(), it, it + 1);
+    } else if (const auto pending = m.exports_in_progress.find(key); pending != m.exports_in_progress.end()) {
+      in_progress = pending->second;
+    } else {
+      m.exports_in_progress.emplace(key, made_here.get_future().share());
+    }
+  }
+  if (!files && in_progress.valid()) {
+    try {
+      const Impl::ExportOutcome& outcome = in_progress.get();
+      if (!outcome.status.ok()) return outcome.status;
+      files = outcome.files;
+    } catch (const std::future_error&) {  // the request making it ended without an outcome
+      return Error(ServiceCode::kInternal, "job " + std::to_string(req.id()) + ": the same export, made for another request, ended without files");
     }
   }
   if (files) {
     m.metrics.ExportServed(/*from_cache=*/true);
   } else {
-    Result<DesignFile> f = [&] {
-      std::lock_guard lock(m.commit_mu);
-      return ReadDesignFile(m.FilePath(req.id()), {.arrays = true, .only_iteration = k});
+    const Impl::ExportOutcome outcome = [&]() -> Impl::ExportOutcome {
+      Result<DesignFile> f = [&] {
+        std::lock_guard lock(m.commit_mu);
+        return ReadDesignFile(m.FilePath(req.id()), {.arrays = true, .only_iteration = k});
+      }();
+      if (!f.ok()) return {Internal(f.status()), nullptr};
+      Result<ExportFiles> made = ExportGeometry(f->header, f->iterations[k], o);
+      if (!made.ok()) return {Error(ServiceCode::kInvalidArgument, "job " + std::to_string(req.id()) + ": " + made.message()), nullptr};
+      return {ServiceStatus::Ok(), std::make_shared<const ExportFiles>(std::move(made).value())};
     }();
-    if (!f.ok()) return Internal(f.status());
-    Result<ExportFiles> made = ExportGeometry(f->header, f->iterations[k], o);
-    if (!made.ok()) return Error(ServiceCode::kInvalidArgument, "job " + std::to_string(req.id()) + ": " + made.message());
-    files = std::make_shared<const ExportFiles>(std::move(made).value());
+    {
+      std::lock_guard lock(m.exports_mu);
+      if (outcome.status.ok()) {
+        m.exports.insert(m.exports.begin(), {key, outcome.files});
+        if (m.exports.size() > Impl::kExportsKept) m.exports.pop_back();
+      }
+      m.exports_in_progress.erase(key);
+    }
+    made_here.set_value(outcome);
+    if (!outcome.status.ok()) return outcome.status;
+    files = outcome.files;
     m.metrics.ExportServed(/*from_cache=*/false);  // counted once made: a failed export is no export
-    std::lock_guard lock(m.exports_mu);
-    m.exports.insert(m.exports.begin(), {key, files});
-    if (m.exports.size() > Impl::kExportsKept) m.exports.pop_back();
   }
   for (const auto& [name, contents] : files->files) (*out->mutable_files())[name] = contents;
   return ServiceStatus::Ok();

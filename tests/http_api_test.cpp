@@ -359,6 +359,27 @@ TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
   EXPECT_EQ(served(after, "computed") - served(before, "computed"), 2) << "patches.svg, then report.json with other options";
   EXPECT_EQ(served(after, "cache") - served(before, "cache"), 2) << "patches.png, and kgd export with the same options";
   EXPECT_EQ(exported.output.find("export: "), std::string::npos) << "an export from the cache has no stages to report:\n" << exported.output;
+  // The page fires an iteration's downloads together: the requests of one export arriving while it is
+  // being made wait for it and share it.
+  {
+    const std::string url = "/v1/jobs/" + id + "/iterations/" + n + "/cut/patches.svg?seamAllowanceMm=9";
+    std::vector<std::string> bodies(4);
+    std::vector<int> statuses(4, 0);
+    std::vector<std::thread> downloads;
+    for (int i = 0; i < 4; ++i)
+      downloads.emplace_back([&, i] {
+        auto res = Service().Client().Get(url);
+        if (res) statuses[i] = res->status, bodies[i] = res->body;
+      });
+    for (std::thread& t : downloads) t.join();
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_EQ(statuses[i], 200) << bodies[i];
+      EXPECT_EQ(bodies[i], bodies[0]);
+    }
+    const std::string together = cli.Get("/metrics")->body;
+    EXPECT_EQ(served(together, "computed") - served(after, "computed"), 1) << "one export made for four requests";
+    EXPECT_EQ(served(together, "cache") - served(after, "cache"), 3);
+  }
   // An export the server computes streams its stages before the files.
   const auto computed = cli_test::Kgd("export " + id + " --iteration " + n + " --seam-allowance-mm 12 --server " + Service().grpc() + " --out " + out + "-12");
   ASSERT_EQ(computed.exit_code, 0) << computed.output;
