@@ -52,7 +52,7 @@ study: build
 
 # What accuracy costs in time (docs/ACCURACY.md and its plots, generated): the arm-flexion design at seven
 # solver tolerances, two model variants, `precise` repeated, garment and body resolutions, three solver
-# methods, and the frames a design is evaluated over (about an hour and a half).
+# methods, and the frames a design is evaluated over (about fifty minutes on two cores).
 study-accuracy: build
 	$(BUILD)/client/kgd study accuracy arm_flexion --out $(BUILD)/study-accuracy --image-prefix images/accuracy/
 	mkdir -p docs/images/accuracy

@@ -480,7 +480,7 @@ int RunStudy(const StudyOptions& o) {
     csv << "knob,value,vertices,iterations,end,iteration0_s,per_iteration_s,loop_s,ratio_run,ratio_tight,jaccard,jaccard_precise\n";
     for (const std::vector<Run>* list : {&st.runs, &methods})
       for (const Run& r : *list)
-        csv << r.knob << "," << r.value << "," << r.vertices << "," << r.iterations << ",\"" << r.end << "\"," << r.iteration0_s << ","
+        csv << "\"" << r.knob << "\",\"" << r.value << "\"," << r.vertices << "," << r.iterations << ",\"" << r.end << "\"," << r.iteration0_s << ","
             << r.per_iteration_s << "," << r.loop_s << "," << r.ratio_run << "," << r.ratio_tight << "," << r.jaccard << ","
             << r.jaccard_precise << "\n";
   }
@@ -488,7 +488,7 @@ int RunStudy(const StudyOptions& o) {
     std::ofstream csv(dir / "traces.csv");
     csv << "trace,seconds,energy_J\n";
     for (const Trace& t : traces)
-      for (const auto& [s, e] : t.time_energy) csv << t.name << "," << s << "," << Fmt("%.15g", e) << "\n";
+      for (const auto& [s, e] : t.time_energy) csv << "\"" << t.name << "\"," << s << "," << Fmt("%.15g", e) << "\n";
   }
   {
     std::ofstream csv(dir / "pull_test.csv");
