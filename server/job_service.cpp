@@ -124,16 +124,16 @@ struct JobService::Impl {
 
   // The last few exports (ExportDesign), most recent first: the web page asks for each cut file of an
   // iteration separately, and a stored iteration never changes, so they share one export.
-  // An export being made, by the request that made it first; the same request arriving meanwhile (the
+  std::mutex exports_mu;
+  std::vector<std::pair<std::string, std::shared_ptr<const ExportFiles>>> exports;
+  static constexpr size_t kExportsKept = 4;
+  // Exports being made, by the request that asked first; the same export asked for meanwhile (the
   // page's downloads of one iteration, fired together) waits for it instead of making it again.
   struct ExportOutcome {
     ServiceStatus status;
     std::shared_ptr<const ExportFiles> files;
   };
-  std::mutex exports_mu;
-  std::vector<std::pair<std::string, std::shared_ptr<const ExportFiles>>> exports;
   std::map<std::string, std::shared_future<ExportOutcome>> exports_in_progress;
-  static constexpr size_t kExportsKept = 4;
 
   // These workers' speed against the cost model's reference machine (job/cost_calibration.h), learned
   // from the jobs they finish; ListScenes' predictions use it.
