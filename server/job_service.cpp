@@ -660,26 +660,28 @@ ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDes
     }
   }
   if (!files && in_progress.valid()) {
-    try {
-      const Impl::ExportOutcome& outcome = in_progress.get();
-      if (!outcome.status.ok()) return outcome.status;
-      files = outcome.files;
-    } catch (const std::future_error&) {  // the request making it ended without an outcome
-      return Error(ServiceCode::kInternal, "job " + std::to_string(req.id()) + ": the same export, made for another request, ended without files");
-    }
+    const Impl::ExportOutcome& outcome = in_progress.get();
+    if (!outcome.status.ok()) return outcome.status;
+    files = outcome.files;
   }
   if (files) {
     m.metrics.ExportServed(/*from_cache=*/true);
   } else {
+    // Every way out of making it gives the requests waiting for it an outcome (an exception, such as an
+    // allocation failing, included), so none waits forever and the next request may try again.
     const Impl::ExportOutcome outcome = [&]() -> Impl::ExportOutcome {
-      Result<DesignFile> f = [&] {
-        std::lock_guard lock(m.commit_mu);
-        return ReadDesignFile(m.FilePath(req.id()), {.arrays = true, .only_iteration = k});
-      }();
-      if (!f.ok()) return {Internal(f.status()), nullptr};
-      Result<ExportFiles> made = ExportGeometry(f->header, f->iterations[k], o);
-      if (!made.ok()) return {Error(ServiceCode::kInvalidArgument, "job " + std::to_string(req.id()) + ": " + made.message()), nullptr};
-      return {ServiceStatus::Ok(), std::make_shared<const ExportFiles>(std::move(made).value())};
+      try {
+        Result<DesignFile> f = [&] {
+          std::lock_guard lock(m.commit_mu);
+          return ReadDesignFile(m.FilePath(req.id()), {.arrays = true, .only_iteration = k});
+        }();
+        if (!f.ok()) return {Internal(f.status()), nullptr};
+        Result<ExportFiles> made = ExportGeometry(f->header, f->iterations[k], o);
+        if (!made.ok()) return {Error(ServiceCode::kInvalidArgument, "job " + std::to_string(req.id()) + ": " + made.message()), nullptr};
+        return {ServiceStatus::Ok(), std::make_shared<const ExportFiles>(std::move(made).value())};
+      } catch (const std::exception& e) {
+        return {Error(ServiceCode::kInternal, "job " + std::to_string(req.id()) + ": the export failed: " + e.what()), nullptr};
+      }
     }();
     {
       std::lock_guard lock(m.exports_mu);
