@@ -659,7 +659,7 @@ ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDes
       m.exports_in_progress.emplace(key, made_here.get_future().share());
     }
   }
-  if (!files && in_progress.valid()) {
+  if (in_progress.valid()) {
     const Impl::ExportOutcome& outcome = in_progress.get();
     if (!outcome.status.ok()) return outcome.status;
     files = outcome.files;
