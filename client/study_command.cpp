@@ -636,7 +636,8 @@ int RunStudy(const StudyOptions& o) {
          << " | " << (std::isfinite(tn) && std::isfinite(tl) ? Fmt("%.1fx", tl / tn) : std::string("-")) << " |\n";
     }
   }
-  md << "\nEnds: ";
+  md << "\nA dash: the method did not reach that error before it ended (how each ended is below: at its iteration limit, or where "
+        "its line search found no lower energy).\n\nEnds: ";
   for (const Trace& t : traces) md << t.name << " " << t.status << " after " << t.time_energy.size() << " iterations; ";
   md << "E_ref cold " << Fmt("%.12g", e_cold) << " J, warm " << Fmt("%.12g", e_warm) << " J.\n\n"
      << "![Newton and L-BFGS](" << o.image_prefix << "newton_lbfgs.svg)\n\n";

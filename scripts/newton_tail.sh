@@ -6,7 +6,9 @@
 # accuracy issue's target is at most 2) and the energy each reaches (Newton's at 1e-8 should be no
 # higher than L-BFGS's at 1e-8), and what the iterations from 1e-6 to 1e-8 move: the vertices that
 # moved more than 0.1 mm between the two equilibria, the largest move, the median move, and the share of
-# the faces around the moved vertices that are slack (zero membrane energy). About twenty minutes on two
+# the faces around the moved vertices that are slack (zero membrane energy), and how many faces the
+# equilibrium at 1e-8 holds at the edge of slack (stretched, with an energy density below 1e-6 Pa: a
+# strain of about 1e-6, where the relaxed energy's second derivative jumps). About twenty minutes on two
 # cores with a warm scene cache.
 #   bash scripts/newton_tail.sh [BUILD_DIR] [SCENE ...]
 set -euo pipefail
@@ -20,8 +22,8 @@ kgd="$build/client/kgd"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 date -u; nproc; lscpu | grep -E "Model name" || true
-printf "%-15s %-15s %7s %7s %6s %9s %9s %20s %20s %9s %9s %8s %9s %8s\n" scene design it_1e-6 it_1e-8 ratio s_1e-6 s_1e-8 \
-  "newton_1e-8_J" "lbfgs_1e-8_J" lbfgs_its moved_0.1mm max_mm median_um slack
+printf "%-15s %-15s %7s %7s %6s %9s %9s %20s %20s %9s %11s %9s %9s %8s %8s\n" scene design it_1e-6 it_1e-8 ratio s_1e-6 s_1e-8 \
+  "newton_1e-8_J" "lbfgs_1e-8_J" lbfgs_its moved_0.1mm max_mm median_um slack at_edge
 for s in "${scenes[@]}"; do
   for d in all_reinforced all_cloth; do
     rm -f "$tmp"/*.ply
@@ -61,7 +63,7 @@ def read_ply(path):
         faces.append((struct.unpack_from("<3i", data, i + 1), struct.unpack_from("<d", data, i + 14)[0]))
         i += 22
     return vertices, faces
-moved = max_mm = median_um = slack = float("nan")
+moved = max_mm = median_um = slack = at_edge = float("nan")
 if os.path.exists(ply_a) and os.path.exists(ply_b):
     va, _ = read_ply(ply_a)
     vb, fb = read_ply(ply_b)
@@ -71,9 +73,10 @@ if os.path.exists(ply_a) and os.path.exists(ply_b):
     median_um = 1e6 * sorted(dist)[len(dist) // 2]
     around = [w for f, w in fb if any(dist[v] > 1e-4 for v in f)]
     slack = sum(w == 0 for w in around) / len(around) if around else 0.0
+    at_edge = sum(0 < w < 1e-6 for f, w in fb)
 print(f"{s:15s} {d:15s} {its(a):>7s} {its(b):>7s} {ratio:6.2f} {a.get('seconds', 0):9.2f} {b.get('seconds', 0):9.2f}"
       f" {b.get('energy_J', float('nan')):20.12f} {c.get('energy_J', float('nan')):20.12f} {its(c):>9s}"
-      f" {moved:>11} {max_mm:9.2f} {median_um:9.3f} {slack:8.2f}")
+      f" {moved:>11} {max_mm:9.2f} {median_um:9.3f} {slack:8.2f} {at_edge:>8}")
 PY
   done
 done

@@ -469,7 +469,9 @@ TEST(Service, BadRequestsGetClearErrorsAndLeaveRunningJobsAlone) {
   EXPECT_EQ(st.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << st.error_message();
 
   // Standard health checking (grpc.health.v1.Health/Check with an empty request: the whole server).
-  const Status health = CheckHealth({.server = service.address()}, 10);
+  Connection to_service;
+  to_service.server = service.address();
+  const Status health = CheckHealth(to_service, 10);
   EXPECT_TRUE(health.ok()) << health.message();
 
   // A scene naming a file the bundle lacks is refused at once, naming the key and the file.
