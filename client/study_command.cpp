@@ -628,16 +628,20 @@ int RunStudy(const StudyOptions& o) {
      << Fmt("%.3g", scale_warm) << " J) warm, since a design update moves the energy by a small fraction of itself. "
      << "Time to reach an error, and L-BFGS's time over Newton's:\n\n"
      << "| start | error | Newton (s) | L-BFGS (s) | L-BFGS / Newton |\n|---|---:|---:|---:|---:|\n";
+  bool any_dash = false;  // a method that never reached an error in the table
   for (size_t i = 0; i + 1 < traces.size(); i += 2) {
     const double e_ref = i < 2 ? e_cold : e_warm, scale = i < 2 ? scale_cold : scale_warm;
     for (double eps : {1e-4, 1e-6, 1e-8}) {
       const double tn = TimeToError(traces[i], e_ref, scale, eps), tl = TimeToError(traces[i + 1], e_ref, scale, eps);
+      any_dash = any_dash || !std::isfinite(tn) || !std::isfinite(tl);
       md << "| " << (i < 2 ? "cold" : "warm") << " | " << Fmt("%.0e", eps) << " | " << Cell(tn, "%.3f") << " | " << Cell(tl, "%.3f")
          << " | " << (std::isfinite(tn) && std::isfinite(tl) ? Fmt("%.1fx", tl / tn) : std::string("-")) << " |\n";
     }
   }
-  md << "\nA dash: the method did not reach that error before it ended (how each ended is below: at its iteration limit, or where "
-        "its line search found no lower energy).\n\nEnds: ";
+  if (any_dash)
+    md << "\nA dash: the method did not reach that error before it ended (how each ended is below: at its iteration limit, or "
+          "where its line search found no lower energy).\n";
+  md << "\nEnds: ";
   for (const Trace& t : traces) md << t.name << " " << t.status << " after " << t.time_energy.size() << " iterations; ";
   md << "E_ref cold " << Fmt("%.12g", e_cold) << " J, warm " << Fmt("%.12g", e_warm) << " J.\n\n"
      << "![Newton and L-BFGS](" << o.image_prefix << "newton_lbfgs.svg)\n\n";

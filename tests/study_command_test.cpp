@@ -66,6 +66,12 @@ TEST(StudyCommand, QuickStudyOfThePullTestWritesItsDocumentAndData) {
     EXPECT_NE(md.find(section), std::string::npos) << section << " missing from:\n" << md;
   for (const char* undefined : {" nan ", " -nan ", " inf ", " -inf "})
     EXPECT_EQ(md.find(undefined), std::string::npos) << "no undefined number in the document:\n" << md;
+  // A method that never reached an error of the Newton/L-BFGS table shows a dash there, and the document
+  // says what a dash means exactly when one is shown.
+  const size_t versus = md.find("## Newton against L-BFGS on one solve"), versus_end = md.find("Ends: ", versus);
+  ASSERT_NE(versus_end, std::string::npos);
+  const std::string versus_table = md.substr(versus, versus_end - versus);
+  EXPECT_EQ(versus_table.find("| - |") != std::string::npos, versus_table.find("A dash: ") != std::string::npos) << versus_table;
 
   // Every design run: a design denser than the fully reinforced garment, agreement indices in [0, 1],
   // the reference run agreeing with itself.
