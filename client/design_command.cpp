@@ -100,10 +100,10 @@ int RunDesign(const DesignOptions& o) {
     writer = std::move(w).value();
   }
   SceneSpec& scene = job->scene;
+  if (o.verbose) scene.solver.diagnose_steps = true;
   if (o.verbose)
     scene.solver.on_iteration = [](const IterationInfo& i) {
-      std::fprintf(stderr, "  newton %4d  E %.12g J  |g| %.3e N  alpha %.3g  delta %.3g%s\n", i.iteration, i.energy_J, i.grad_norm_N,
-                   i.step_length, i.regularization, i.used_pcg ? "  (pcg)" : i.local ? "  (local)" : "");
+      std::fprintf(stderr, "  newton %4d  %s\n", i.iteration, DescribeIteration(i).c_str());
     };
   const BesoSettings& settings = job->settings();
   const bool bar = !o.json && isatty(STDOUT_FILENO);

@@ -394,11 +394,17 @@ int RunGet(const std::string& server, int64_t id, int iteration, const std::stri
   return 0;
 }
 
+server::HttpOptions WebDefaults() {
+  server::HttpOptions h;
+  h.web_dir = KGD_WEB_DIR;
+  return h;
+}
+
 struct ServeOptions {
   server::ServerOptions server;
   int workers = 1;
   int jobs_per_worker = 1;
-  server::HttpOptions http{.address = "127.0.0.1:7448", .web_dir = KGD_WEB_DIR};
+  server::HttpOptions http = WebDefaults();
   bool no_http = false;
   double max_upload_mb = 64;
   server::SecurityFlags security;

@@ -201,10 +201,10 @@ int RunSimulate(const SimulateOptions& o) {
   if (!o.method.empty()) scene->solver.method = o.method == "lbfgs" ? SolverMethod::kLbfgs : SolverMethod::kNewton;
   if (o.grad_tol > 0) scene->solver.grad_tol = o.grad_tol;
   if (o.max_iterations >= 0) scene->solver.max_iterations = o.max_iterations;
+  if (o.verbose) scene->solver.diagnose_steps = true;
   if (o.verbose)
     scene->solver.on_iteration = [](const IterationInfo& i) {
-      std::fprintf(stderr, "iter %4d  E %.12g J  |g| %.3e N  alpha %.3g  delta %.3g%s\n", i.iteration, i.energy_J,
-                   i.grad_norm_N, i.step_length, i.regularization, i.used_pcg ? "  (pcg)" : i.local ? "  (local)" : "");
+      std::fprintf(stderr, "iter %4d  %s\n", i.iteration, DescribeIteration(i).c_str());
     };
   if (o.design == "all_cloth") scene->design.assign(scene->design.size(), kCloth);
   if (o.design == "all_reinforced") scene->design.assign(scene->design.size(), kReinforced);

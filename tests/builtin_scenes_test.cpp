@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <nlohmann/json.hpp>
 
 #include "core/mesh/self_intersection.h"
@@ -277,6 +278,26 @@ TEST(BuiltinScenes, SimulateProfileNamesTheTermsBuiltAndTheirTimes) {
     const std::string human = RunKgd(std::string("simulate ") + c.scene + " --profile", &code);
     EXPECT_NE(human.find("terms built"), std::string::npos) << human;
   }
+}
+
+// `kgd simulate -v` prints every Newton iteration with its model ratio and the elements its step
+// switched: a sleeve that starts off its limb lands on it, so contact vertices switch.
+TEST(BuiltinScenes, SimulateVerboseShowsEachStepsModelRatioAndSwitches) {
+  int code = 0;
+  const std::string out = RunKgd("simulate sleeve_on_limb -v", &code);
+  ASSERT_EQ(code, 0) << out;
+  std::istringstream lines(out);
+  int iterations = 0, with_model = 0, contact_switched = 0;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("iter ", 0) != 0) continue;
+    ++iterations;
+    with_model += line.find("  model ") != std::string::npos;
+    const size_t sw = line.find("  switched ");
+    contact_switched += sw != std::string::npos && line.find("contact ", sw) != std::string::npos;
+  }
+  EXPECT_GT(iterations, 3) << out;
+  EXPECT_EQ(with_model, iterations) << out;
+  EXPECT_GT(contact_switched, 0) << out;
 }
 
 // Acceptance 5: `kgd scene export` then `kgd simulate` on the files reproduces the built-in result.

@@ -124,7 +124,37 @@ bool LocalStep(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& g, d
   return true;
 }
 
+// Per term, the elements whose energy is zero in one of `before` and `after` and positive in the other.
+std::vector<int> SwitchedElements(const std::vector<std::vector<double>>& before, const std::vector<std::vector<double>>& after) {
+  std::vector<int> out(after.size(), 0);
+  if (before.size() != after.size()) return out;
+  for (size_t t = 0; t < after.size(); ++t) {
+    if (before[t].size() != after[t].size()) continue;
+    for (size_t e = 0; e < after[t].size(); ++e) out[t] += (before[t][e] > 0) != (after[t][e] > 0);
+  }
+  return out;
+}
+
 }  // namespace
+
+std::string DescribeIteration(const IterationInfo& info) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "E %.12g J  |g| %.3e N  alpha %.3g  delta %.3g%s", info.energy_J, info.grad_norm_N,
+                info.step_length, info.regularization, info.used_pcg ? "  (pcg)" : info.local ? "  (local)" : "");
+  std::string out = buf;
+  if (std::isfinite(info.model_ratio)) {
+    std::snprintf(buf, sizeof buf, "  model %.3g", info.model_ratio);
+    out += buf;
+  }
+  bool first = true;
+  for (size_t t = 0; t < info.switched_elements.size(); ++t) {
+    if (info.switched_elements[t] == 0) continue;
+    const char* name = info.term_names && t < info.term_names->size() ? (*info.term_names)[t] : "term";
+    out += (first ? "  switched " : ", ") + std::string(name) + " " + std::to_string(info.switched_elements[t]);
+    first = false;
+  }
+  return out;
+}
 
 const char* ToString(SolveStatus s) {
   switch (s) {
@@ -248,6 +278,7 @@ struct Simulator::NewtonSolve {
   static constexpr int kStallSteps = 8;
   // The current iteration: its damping, how its step was found, and the line search's step length.
   double delta = 0, alpha = 1.0;
+  double model_ratio = 0;  // the accepted step's energy change over its quadratic model's (progress report only)
   bool fresh_factor = false, used_pcg = false, used_local = false;
 
   // Evaluates at the start; false when the solve ends there (rep says how).
@@ -450,6 +481,13 @@ struct Simulator::NewtonSolve {
         continue;
       }
       accepted = LineSearch(p, slope);
+      if (accepted && settings.on_iteration && settings.diagnose_steps) {
+        // The step's quadratic model g.s + s.H.s / 2 (H as factorized, without the damping) against
+        // the energy's actual change: the trust-region ratio, for the progress report.
+        const double pHp = p.dot(nt.H.selfadjointView<Eigen::Upper>() * p);
+        const double predicted = alpha * slope + 0.5 * alpha * alpha * pHp;
+        model_ratio = predicted < 0 ? (E_new - E) / predicted : std::numeric_limits<double>::quiet_NaN();
+      }
       if (!accepted && used_local) {
         used_local = false;  // the global step next, at the same regularization
         continue;
@@ -488,6 +526,10 @@ struct Simulator::NewtonSolve {
   void Accept(int it) {
     x->swap(trial);
     const double E_before = E;
+    // The energies per element before the step, for the switch counts of the progress report: the
+    // record at the old state is swapped aside below, or overwritten when the trial had no derivatives.
+    std::vector<std::vector<double>> energies_before;
+    if (settings.on_iteration && settings.diagnose_steps && !trial_derivatives) energies_before = nt.record.energy_J;
     if (trial_derivatives) {
       E = E_new;
       g_full.swap(g_trial_full);
@@ -508,7 +550,22 @@ struct Simulator::NewtonSolve {
       local_failures_in_row = g.norm() > 0.5 * g_before ? local_failures_in_row + 1 : 0;
       if (local_failures_in_row >= 2 && settings.grad_tol < kTightGradTol) local_allowed = false;
     }
-    if (settings.on_iteration) settings.on_iteration({it + 1, E, g.norm(), alpha, delta, used_pcg, used_local});
+    if (settings.on_iteration) {
+      IterationInfo info;
+      info.iteration = it + 1;
+      info.energy_J = E;
+      info.grad_norm_N = g.norm();
+      info.step_length = alpha;
+      info.regularization = delta;
+      info.used_pcg = used_pcg;
+      info.local = used_local;
+      if (settings.diagnose_steps) {
+        info.model_ratio = model_ratio;
+        info.switched_elements = SwitchedElements(trial_derivatives ? nt.record_trial.energy_J : energies_before, nt.record.energy_J);
+        info.term_names = &sys.term_names();
+      }
+      settings.on_iteration(info);
+    }
     stalled_steps = (alpha < 1.0 && E_before - E <= 1e-12 * std::abs(E_before)) ? stalled_steps + 1 : 0;
   }
 };

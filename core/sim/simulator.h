@@ -23,8 +23,10 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/sim/garment_system.h"
 
@@ -57,7 +59,21 @@ struct IterationInfo {
   double regularization = 0;    // delta (N/m) of the step just taken (Newton)
   bool used_pcg = false;
   bool local = false;           // a local step (SolverSettings::local_steps), no global factorization
+  // Newton with SolverSettings::diagnose_steps (NaN and empty otherwise): the step's energy change over
+  // the change its quadratic model predicted (1 where the model holds; NaN where it predicted no decrease).
+  double model_ratio = std::numeric_limits<double>::quiet_NaN();
+  // Per built term (GarmentSystem::term_names() order), how many of its elements the step
+  // switched on or off, their energy going from zero to positive or back: membrane faces between slack
+  // and stretched, vertices between free and touching the body, fold barriers between idle and active.
+  // Where steps keep switching elements the energy's curvature jumps under them and Newton's local
+  // convergence is lost (docs/PERFORMANCE.md, "Newton's tail").
+  std::vector<int> switched_elements;
+  const std::vector<const char*>* term_names = nullptr;  // names for switched_elements (Newton)
 };
+
+// One line for a progress log (`kgd simulate -v`, `kgd design -v`), without the iteration number:
+// "E 0.597104613 J  |g| 2.600e-05 N  alpha 1  delta 0.0061  model 0.98  switched membrane 7, contact 14".
+std::string DescribeIteration(const IterationInfo& info);
 
 struct SolverSettings {
   SolverMethod method = SolverMethod::kNewton;
@@ -92,6 +108,9 @@ struct SolverSettings {
   // 800 L-BFGS iterations. For the accuracy study; off by default.
   bool accept_iteration_limit = false;
   std::function<void(const IterationInfo&)> on_iteration;  // optional
+  // Newton, with on_iteration: fill IterationInfo's model_ratio and switched_elements (a Hessian product
+  // and a pass over the elements per iteration; for `-v`, not for timed runs).
+  bool diagnose_steps = false;
 };
 
 struct SolveReport {

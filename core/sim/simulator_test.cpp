@@ -4,6 +4,7 @@
 
 #include <Eigen/CholmodSupport>
 #include <limits>
+#include <numeric>
 
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
@@ -313,6 +314,62 @@ TEST(Simulator, AStallOnTheAuthorsGradientJumpEndsTheSolveEarly) {
   EXPECT_NE(ra->solve.message.find("gradient jump"), std::string::npos) << ra->solve.message;
   const double fe = re->clamp_forces[1].force_N.norm(), fa = ra->clamp_forces[1].force_N.norm();
   EXPECT_NEAR(fa / fe, 1.0, 1e-3) << "authors " << fa << " N, exact " << fe << " N";
+}
+
+// The progress report counts, per term, the elements a step switched on or off: here checked against
+// the energies per element at the iterates themselves (each re-made by a solve stopped after k steps).
+TEST(Simulator, TheProgressReportCountsTheElementsEachStepSwitched) {
+  const SceneSpec s = SmallSleeve();
+  auto build = [&s] {
+    auto model = BuildGarmentModel(s);
+    EXPECT_TRUE(model.ok());
+    return std::make_unique<GarmentSystem>(std::move(model).value(), s.initial);
+  };
+  SolverSettings settings;
+  settings.grad_tol = 1e-7;
+  std::vector<IterationInfo> trace;
+  SolverSettings traced = settings;
+  traced.on_iteration = [&trace](const IterationInfo& i) { trace.push_back(i); };
+  traced.diagnose_steps = true;
+  auto sys = build();
+  Positions x = s.initial;
+  ASSERT_TRUE(Simulator(sys.get()).Solve(&x, traced).converged());
+  ASSERT_GE(trace.size(), 3u);
+  const int membrane = sys->term_index("membrane"), contact = sys->term_index("contact");
+  ASSERT_GE(membrane, 0);
+  ASSERT_GE(contact, 0);
+  int total = 0;
+  EvaluationRecord before;
+  sys->Evaluate(s.initial, nullptr, nullptr, nullptr, &before);
+  for (size_t k = 1; k <= trace.size(); ++k) {
+    auto fresh = build();
+    Positions xk = s.initial;
+    SolverSettings stop = settings;
+    stop.max_iterations = static_cast<int>(k);
+    Simulator(fresh.get()).Solve(&xk, stop);
+    EvaluationRecord after;
+    fresh->Evaluate(xk, nullptr, nullptr, nullptr, &after);
+    const IterationInfo& info = trace[k - 1];
+    ASSERT_EQ(info.switched_elements.size(), after.energy_J.size());
+    ASSERT_NE(info.term_names, nullptr);
+    EXPECT_STREQ((*info.term_names)[membrane], "membrane");
+    for (size_t t = 0; t < after.energy_J.size(); ++t) {
+      int expected = 0;
+      for (size_t e = 0; e < after.energy_J[t].size(); ++e) expected += (before.energy_J[t][e] > 0) != (after.energy_J[t][e] > 0);
+      EXPECT_EQ(info.switched_elements[t], expected) << "step " << k << ", term " << (*info.term_names)[t];
+      total += info.switched_elements[t];
+    }
+    const int switched_here = std::accumulate(info.switched_elements.begin(), info.switched_elements.end(), 0);
+    EXPECT_EQ(DescribeIteration(info).find("switched") != std::string::npos, switched_here > 0) << DescribeIteration(info);
+    before = std::move(after);
+  }
+  // The sleeve starts off the limb and slack in places: its first steps switch faces and vertices.
+  EXPECT_GT(total, 0);
+  // Every accepted step lowered the energy and its model predicted a decrease; the last, at the
+  // solution, where the energy is locally quadratic, does what its model predicts.
+  for (const IterationInfo& i : trace) EXPECT_TRUE(std::isfinite(i.model_ratio) && i.model_ratio > 0) << DescribeIteration(i);
+  EXPECT_NEAR(trace.back().model_ratio, 1.0, 0.1) << DescribeIteration(trace.back());
+  EXPECT_GT(trace.front().switched_elements[membrane] + trace.front().switched_elements[contact], 0);
 }
 
 TEST(Simulator, IterationLimitIsReportedWithTheResidual) {
