@@ -660,9 +660,15 @@ ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDes
     }
   }
   if (in_progress.valid()) {
-    const Impl::ExportOutcome& outcome = in_progress.get();
-    if (!outcome.status.ok()) return outcome.status;
-    files = outcome.files;
+    // get() throws where the maker could not even hand over an outcome (a broken promise): nothing
+    // throws across the service boundary.
+    try {
+      const Impl::ExportOutcome& outcome = in_progress.get();
+      if (!outcome.status.ok()) return outcome.status;
+      files = outcome.files;
+    } catch (const std::exception& e) {
+      return Error(ServiceCode::kInternal, "job " + std::to_string(req.id()) + ": the export failed: " + e.what());
+    }
   }
   if (files) {
     m.metrics.ExportServed(/*from_cache=*/true);
@@ -685,11 +691,15 @@ ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDes
     }();
     {
       std::lock_guard lock(m.exports_mu);
-      if (outcome.status.ok()) {
-        m.exports.insert(m.exports.begin(), {key, outcome.files});
-        if (m.exports.size() > Impl::kExportsKept) m.exports.pop_back();
-      }
       m.exports_in_progress.erase(key);
+      if (outcome.status.ok()) {
+        try {
+          m.exports.insert(m.exports.begin(), {key, outcome.files});
+          if (m.exports.size() > Impl::kExportsKept) m.exports.pop_back();
+        } catch (const std::exception&) {
+          // The cache only saves work: an export it could not keep is made again when asked for.
+        }
+      }
     }
     made_here.set_value(outcome);
     if (!outcome.status.ok()) return outcome.status;
