@@ -2,47 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 
 #include "core/mesh/topology.h"
 
 namespace kgd {
 namespace {
-
-// Faces sharing an edge, per face.
-std::vector<std::vector<int>> FaceNeighbours(const Faces& faces) {
-  std::map<std::pair<int, int>, std::vector<int>> edge;
-  for (Eigen::Index f = 0; f < faces.rows(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int a = faces(f, k), b = faces(f, (k + 1) % 3);
-      edge[{std::min(a, b), std::max(a, b)}].push_back(static_cast<int>(f));
-    }
-  std::vector<std::vector<int>> out(faces.rows());
-  for (const auto& [e, fs] : edge)
-    for (int f : fs)
-      for (int g : fs)
-        if (f != g) out[f].push_back(g);
-  return out;
-}
-
-// Edge-connected components of the faces with `in[f]`; -1 for the others.
-std::vector<int> Components(const std::vector<std::vector<int>>& neighbours, const std::vector<char>& in, int* count) {
-  std::vector<int> comp(in.size(), -1);
-  *count = 0;
-  for (size_t f0 = 0; f0 < in.size(); ++f0) {
-    if (!in[f0] || comp[f0] >= 0) continue;
-    std::vector<int> stack = {static_cast<int>(f0)};
-    comp[f0] = *count;
-    while (!stack.empty()) {
-      const int f = stack.back();
-      stack.pop_back();
-      for (int g : neighbours[f])
-        if (in[g] && comp[g] < 0) comp[g] = *count, stack.push_back(g);
-    }
-    ++*count;
-  }
-  return comp;
-}
 
 // Fairs a closed staircase polyline (Taubin lambda/mu, so it does not shrink), leaving alone the
 // vertices on straight runs and the corners between long straight runs: an outline that is already
@@ -98,7 +62,7 @@ CleanedDesign CleanDesign(const TriMesh& rest, const std::vector<uint8_t>& desig
   const int nf = static_cast<int>(faces.rows());
   const Eigen::VectorXd area = FaceAreas(rest.vertices, faces);
   const double min_area = o.min_area_m2 > 0 ? o.min_area_m2 : 4 * o.min_feature_m * o.min_feature_m;
-  const std::vector<std::vector<int>> neighbours = FaceNeighbours(faces);
+  const std::vector<std::vector<int>> neighbours = FaceNeighbors(faces);
   auto kept = [&](int f) { return !keep.empty() && keep[f]; };
   CleanedDesign out;
   out.design = design;
@@ -108,8 +72,9 @@ CleanedDesign CleanDesign(const TriMesh& rest, const std::vector<uint8_t>& desig
   {
     std::vector<char> in(nf);
     for (int f = 0; f < nf; ++f) in[f] = d[f] != 0;
-    int count = 0;
-    const std::vector<int> comp = Components(neighbours, in, &count);
+    const FacePieces pieces = EdgeConnectedPieces(faces, in);
+    const std::vector<int>& comp = pieces.piece;
+    const int count = pieces.count;
     std::vector<double> a(count, 0);
     std::vector<char> held(count, 0);
     for (int f = 0; f < nf; ++f)
@@ -122,8 +87,9 @@ CleanedDesign CleanDesign(const TriMesh& rest, const std::vector<uint8_t>& desig
   {
     std::vector<char> in(nf);
     for (int f = 0; f < nf; ++f) in[f] = d[f] == 0;
-    int count = 0;
-    const std::vector<int> comp = Components(neighbours, in, &count);
+    const FacePieces pieces = EdgeConnectedPieces(faces, in);
+    const std::vector<int>& comp = pieces.piece;
+    const int count = pieces.count;
     std::vector<double> a(count, 0);
     std::vector<char> open(count, 0);
     for (int f = 0; f < nf; ++f)
@@ -189,9 +155,9 @@ std::vector<Patch> ReinforcementPatches(const Pattern& pattern, const std::vecto
       const int g = piece.garment_faces[f];
       in[f] = design[g] && (include.empty() || include[g]);
     }
-    const std::vector<std::vector<int>> neighbours = FaceNeighbours(piece.faces);
-    int count = 0;
-    const std::vector<int> comp = Components(neighbours, in, &count);
+    const FacePieces pieces = EdgeConnectedPieces(piece.faces, in);
+    const std::vector<int>& comp = pieces.piece;
+    const int count = pieces.count;
     Positions flat3(piece.flat.rows(), 3);
     flat3 << piece.flat, Eigen::VectorXd::Zero(piece.flat.rows());
     const Eigen::VectorXd flat_area = FaceAreas(flat3, piece.faces);

@@ -48,13 +48,15 @@ VertexFaceIncidence VertexFaces(const Faces& faces, int num_vertices) {
   return r;
 }
 
-FacePieces EdgeConnectedPieces(const Faces& faces) {
+FacePieces EdgeConnectedPieces(const Faces& faces, const std::vector<char>& in) {
   const int nf = static_cast<int>(faces.rows());
+  auto member = [&](int f) { return in.empty() || in[f]; };
   std::vector<int> parent(nf);
   std::iota(parent.begin(), parent.end(), 0);
   std::unordered_map<uint64_t, int> first_face;
   first_face.reserve(3 * nf);
-  for (int f = 0; f < nf; ++f)
+  for (int f = 0; f < nf; ++f) {
+    if (!member(f)) continue;
     for (int k = 0; k < 3; ++k) {
       auto [it, inserted] = first_face.emplace(EdgeKey(faces(f, k), faces(f, (k + 1) % 3)), f);
       if (!inserted) {
@@ -62,13 +64,24 @@ FacePieces EdgeConnectedPieces(const Faces& faces) {
         if (a != b) parent[std::max(a, b)] = std::min(a, b);
       }
     }
+  }
   FacePieces out;
   out.piece.assign(nf, -1);
   std::vector<int> id_of_root(nf, -1);
   for (int f = 0; f < nf; ++f) {
+    if (!member(f)) continue;
     const int root = Find(parent, f);
     if (id_of_root[root] < 0) id_of_root[root] = out.count++;
     out.piece[f] = id_of_root[root];
+  }
+  return out;
+}
+
+std::vector<std::vector<int>> FaceNeighbors(const Faces& faces) {
+  std::vector<std::vector<int>> out(faces.rows());
+  for (const std::array<int, 2>& pair : MeshHinges(faces).faces) {
+    out[pair[0]].push_back(pair[1]);
+    out[pair[1]].push_back(pair[0]);
   }
   return out;
 }

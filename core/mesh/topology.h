@@ -14,8 +14,6 @@ namespace kgd {
 // For every vertex, its neighbours along mesh edges (sorted, each once).
 std::vector<std::vector<int>> VertexNeighbors(const Faces& faces, int num_vertices);
 
-// The faces around each vertex, compressed: those of v are face[begin[v]] .. face[begin[v + 1] - 1], in
-// increasing order (a face that names v twice is listed twice).
 // The interior edges of a mesh, each with the two faces that share it (a hinge): edge a-b, c the third
 // vertex of the first face, d that of the second. Edges of one face (boundary) or of more than two
 // (non-manifold) are left out.
@@ -25,19 +23,26 @@ struct Hinges {
 };
 Hinges MeshHinges(const Faces& faces);
 
+// The faces around each vertex, compressed: those of v are face[begin[v]] .. face[begin[v + 1] - 1], in
+// increasing order (a face that names v twice is listed twice).
 struct VertexFaceIncidence {
   std::vector<int> begin;  // num_vertices + 1 entries
   std::vector<int> face;
 };
 VertexFaceIncidence VertexFaces(const Faces& faces, int num_vertices);
 
+// For every face, the faces that share an interior edge with it (MeshHinges: edges of exactly two
+// faces). A face with fewer than three has an edge on the boundary (or a non-manifold one).
+std::vector<std::vector<int>> FaceNeighbors(const Faces& faces);
+
 // Edge-connected pieces: `piece[f]` in [0, count) for every face; pieces are numbered by their
-// smallest face index.
+// smallest face index. With `in` (one entry per face), the pieces of the faces with in[f] only,
+// connected through edges between two such faces; piece[f] = -1 for the others.
 struct FacePieces {
   std::vector<int> piece;
   int count = 0;
 };
-FacePieces EdgeConnectedPieces(const Faces& faces);
+FacePieces EdgeConnectedPieces(const Faces& faces, const std::vector<char>& in = {});
 
 // Closed loops of boundary edges (edges with one incident face), each as its vertex sequence in
 // the faces' orientation. Precondition: the boundary is made of simple loops (no vertex on two loops).

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 namespace kgd {
 namespace {
 
@@ -55,6 +57,37 @@ TEST(Topology, PiecesAreEdgeConnected) {
   EXPECT_EQ(p.count, 3);
   EXPECT_EQ(p.piece[0], p.piece[1]);
   EXPECT_NE(p.piece[1], p.piece[2]);
+}
+
+// Pieces of a subset: faces outside it neither join pieces nor get one. The strip's first row with its
+// middle quad left out falls into two pieces; with the whole first row in, one.
+TEST(Topology, PiecesOfASubsetConnectOnlyThroughItsOwnFaces) {
+  const Faces f = Strip();  // row 0: faces 0-5 (quads 0, 1, 2), row 1: faces 6-11
+  std::vector<char> in(f.rows(), 0);
+  for (int k : {0, 1, 4, 5}) in[k] = 1;
+  const FacePieces p = EdgeConnectedPieces(f, in);
+  EXPECT_EQ(p.count, 2);
+  EXPECT_EQ(p.piece[0], 0);
+  EXPECT_EQ(p.piece[1], 0);
+  EXPECT_EQ(p.piece[4], 1);
+  EXPECT_EQ(p.piece[5], 1);
+  for (int k : {2, 3, 6, 7, 8, 9, 10, 11}) EXPECT_EQ(p.piece[k], -1) << k;
+  in[2] = in[3] = 1;
+  EXPECT_EQ(EdgeConnectedPieces(f, in).count, 1);
+  EXPECT_EQ(EdgeConnectedPieces(f, std::vector<char>(f.rows(), 1)).count, EdgeConnectedPieces(f).count);
+}
+
+// Face neighbours across interior edges: on the tetrahedron every face has the other three; on the
+// strip a face with an edge on the boundary has fewer than three, an inner face three.
+TEST(Topology, FaceNeighborsShareAnInteriorEdge) {
+  const auto tet = FaceNeighbors(Tetrahedron());
+  for (const auto& n : tet) EXPECT_EQ(n.size(), 3u);
+  const auto strip = FaceNeighbors(Strip());
+  ASSERT_EQ(strip.size(), 12u);
+  EXPECT_EQ(strip[0].size(), 2u);  // vertices 0, 1, 5: edge 0-1 on the boundary
+  EXPECT_EQ(strip[3].size(), 3u);  // vertices 1, 6, 5: its quad's diagonal, quad 0's edge, the next row's
+  for (size_t f = 0; f < strip.size(); ++f)
+    for (int g : strip[f]) EXPECT_NE(std::find(strip[g].begin(), strip[g].end(), static_cast<int>(f)), strip[g].end());
 }
 
 TEST(Topology, MidpointSubdivisionQuadruplesAndInterpolates) {
