@@ -162,14 +162,7 @@ SolveReport Simulator::SolveLbfgs(Positions* x, const SolverSettings& settings) 
     xf += s_vec;
     E = f_found;
     g = g_found;
-    if (settings.on_iteration) {
-      IterationInfo info;
-      info.iteration = it + 1;
-      info.energy_J = E;
-      info.grad_norm_N = g.norm();
-      info.step_length = found;
-      settings.on_iteration(info);
-    }
+    if (settings.on_iteration) settings.on_iteration({it + 1, E, g.norm(), found, 0, false, false, {}});
     const double sy = s_vec.dot(y_vec);
     if (sy > 1e-16 * s_vec.norm() * y_vec.norm()) {
       S.push_back(s_vec); Y.push_back(y_vec); rho.push_back(1.0 / sy);

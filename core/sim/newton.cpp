@@ -142,15 +142,16 @@ std::string DescribeIteration(const IterationInfo& info) {
   std::snprintf(buf, sizeof buf, "E %.12g J  |g| %.3e N  alpha %.3g  delta %.3g%s", info.energy_J, info.grad_norm_N,
                 info.step_length, info.regularization, info.used_pcg ? "  (pcg)" : info.local ? "  (local)" : "");
   std::string out = buf;
-  if (std::isfinite(info.model_ratio)) {
-    std::snprintf(buf, sizeof buf, "  model %.3g", info.model_ratio);
+  const StepDiagnostics& d = info.diagnostics;
+  if (std::isfinite(d.model_ratio)) {
+    std::snprintf(buf, sizeof buf, "  model %.3g", d.model_ratio);
     out += buf;
   }
   bool first = true;
-  for (size_t t = 0; t < info.switched_elements.size(); ++t) {
-    if (info.switched_elements[t] == 0) continue;
-    const char* name = info.term_names && t < info.term_names->size() ? (*info.term_names)[t] : "term";
-    out += (first ? "  switched " : ", ") + std::string(name) + " " + std::to_string(info.switched_elements[t]);
+  for (size_t t = 0; t < d.switched_elements.size(); ++t) {
+    if (d.switched_elements[t] == 0) continue;
+    const char* name = d.term_names && t < d.term_names->size() ? (*d.term_names)[t] : "term";
+    out += (first ? "  switched " : ", ") + std::string(name) + " " + std::to_string(d.switched_elements[t]);
     first = false;
   }
   return out;
@@ -551,19 +552,10 @@ struct Simulator::NewtonSolve {
       if (local_failures_in_row >= 2 && settings.grad_tol < kTightGradTol) local_allowed = false;
     }
     if (settings.on_iteration) {
-      IterationInfo info;
-      info.iteration = it + 1;
-      info.energy_J = E;
-      info.grad_norm_N = g.norm();
-      info.step_length = alpha;
-      info.regularization = delta;
-      info.used_pcg = used_pcg;
-      info.local = used_local;
-      if (settings.diagnose_steps) {
-        info.model_ratio = model_ratio;
-        info.switched_elements = SwitchedElements(trial_derivatives ? nt.record_trial.energy_J : energies_before, nt.record.energy_J);
-        info.term_names = &sys.term_names();
-      }
+      IterationInfo info{it + 1, E, g.norm(), alpha, delta, used_pcg, used_local, {}};
+      if (settings.diagnose_steps)
+        info.diagnostics = {model_ratio, SwitchedElements(trial_derivatives ? nt.record_trial.energy_J : energies_before, nt.record.energy_J),
+                            &sys.term_names()};
       settings.on_iteration(info);
     }
     stalled_steps = (alpha < 1.0 && E_before - E <= 1e-12 * std::abs(E_before)) ? stalled_steps + 1 : 0;

@@ -50,6 +50,21 @@ enum class SolveStatus {
 inline constexpr SolveStatus kLastSolveStatus = SolveStatus::kStalled;
 const char* ToString(SolveStatus status);
 
+// What a Newton step did beyond its length, for diagnosing slow convergence (SolverSettings::
+// diagnose_steps; NaN and empty otherwise).
+struct StepDiagnostics {
+  // The step's energy change over the change its quadratic model predicted (1 where the model holds;
+  // NaN where it predicted no decrease).
+  double model_ratio = std::numeric_limits<double>::quiet_NaN();
+  // Per built term (GarmentSystem::term_names() order), how many of its elements the step
+  // switched on or off, their energy going from zero to positive or back: membrane faces between slack
+  // and stretched, vertices between free and touching the body, fold barriers between idle and active.
+  // Where steps keep switching elements the energy's curvature jumps under them and Newton's local
+  // convergence is lost (docs/PERFORMANCE.md, "Newton's tail").
+  std::vector<int> switched_elements;
+  const std::vector<const char*>* term_names = nullptr;  // names for switched_elements
+};
+
 // Progress of one iteration, for logging (`kgd simulate --verbose`).
 struct IterationInfo {
   int iteration = 0;
@@ -59,16 +74,7 @@ struct IterationInfo {
   double regularization = 0;    // delta (N/m) of the step just taken (Newton)
   bool used_pcg = false;
   bool local = false;           // a local step (SolverSettings::local_steps), no global factorization
-  // Newton with SolverSettings::diagnose_steps (NaN and empty otherwise): the step's energy change over
-  // the change its quadratic model predicted (1 where the model holds; NaN where it predicted no decrease).
-  double model_ratio = std::numeric_limits<double>::quiet_NaN();
-  // Per built term (GarmentSystem::term_names() order), how many of its elements the step
-  // switched on or off, their energy going from zero to positive or back: membrane faces between slack
-  // and stretched, vertices between free and touching the body, fold barriers between idle and active.
-  // Where steps keep switching elements the energy's curvature jumps under them and Newton's local
-  // convergence is lost (docs/PERFORMANCE.md, "Newton's tail").
-  std::vector<int> switched_elements;
-  const std::vector<const char*>* term_names = nullptr;  // names for switched_elements (Newton)
+  StepDiagnostics diagnostics;  // Newton with SolverSettings::diagnose_steps
 };
 
 // One line for a progress log (`kgd simulate -v`, `kgd design -v`), without the iteration number:
@@ -108,8 +114,8 @@ struct SolverSettings {
   // 800 L-BFGS iterations. For the accuracy study; off by default.
   bool accept_iteration_limit = false;
   std::function<void(const IterationInfo&)> on_iteration;  // optional
-  // Newton, with on_iteration: fill IterationInfo's model_ratio and switched_elements (a Hessian product
-  // and a pass over the elements per iteration; for `-v`, not for timed runs).
+  // Newton, with on_iteration: fill IterationInfo::diagnostics (a Hessian product and a pass over the
+  // elements per iteration; for `-v`, not for timed runs).
   bool diagnose_steps = false;
 };
 

@@ -350,16 +350,16 @@ TEST(Simulator, TheProgressReportCountsTheElementsEachStepSwitched) {
     EvaluationRecord after;
     fresh->Evaluate(xk, nullptr, nullptr, nullptr, &after);
     const IterationInfo& info = trace[k - 1];
-    ASSERT_EQ(info.switched_elements.size(), after.energy_J.size());
-    ASSERT_NE(info.term_names, nullptr);
-    EXPECT_STREQ((*info.term_names)[membrane], "membrane");
+    ASSERT_EQ(info.diagnostics.switched_elements.size(), after.energy_J.size());
+    ASSERT_NE(info.diagnostics.term_names, nullptr);
+    EXPECT_STREQ((*info.diagnostics.term_names)[membrane], "membrane");
     for (size_t t = 0; t < after.energy_J.size(); ++t) {
       int expected = 0;
       for (size_t e = 0; e < after.energy_J[t].size(); ++e) expected += (before.energy_J[t][e] > 0) != (after.energy_J[t][e] > 0);
-      EXPECT_EQ(info.switched_elements[t], expected) << "step " << k << ", term " << (*info.term_names)[t];
-      total += info.switched_elements[t];
+      EXPECT_EQ(info.diagnostics.switched_elements[t], expected) << "step " << k << ", term " << (*info.diagnostics.term_names)[t];
+      total += info.diagnostics.switched_elements[t];
     }
-    const int switched_here = std::accumulate(info.switched_elements.begin(), info.switched_elements.end(), 0);
+    const int switched_here = std::accumulate(info.diagnostics.switched_elements.begin(), info.diagnostics.switched_elements.end(), 0);
     EXPECT_EQ(DescribeIteration(info).find("switched") != std::string::npos, switched_here > 0) << DescribeIteration(info);
     before = std::move(after);
   }
@@ -367,9 +367,9 @@ TEST(Simulator, TheProgressReportCountsTheElementsEachStepSwitched) {
   EXPECT_GT(total, 0);
   // Every accepted step lowered the energy and its model predicted a decrease; the last, at the
   // solution, where the energy is locally quadratic, does what its model predicts.
-  for (const IterationInfo& i : trace) EXPECT_TRUE(std::isfinite(i.model_ratio) && i.model_ratio > 0) << DescribeIteration(i);
-  EXPECT_NEAR(trace.back().model_ratio, 1.0, 0.1) << DescribeIteration(trace.back());
-  EXPECT_GT(trace.front().switched_elements[membrane] + trace.front().switched_elements[contact], 0);
+  for (const IterationInfo& i : trace) EXPECT_TRUE(std::isfinite(i.diagnostics.model_ratio) && i.diagnostics.model_ratio > 0) << DescribeIteration(i);
+  EXPECT_NEAR(trace.back().diagnostics.model_ratio, 1.0, 0.1) << DescribeIteration(trace.back());
+  EXPECT_GT(trace.front().diagnostics.switched_elements[membrane] + trace.front().diagnostics.switched_elements[contact], 0);
 }
 
 TEST(Simulator, IterationLimitIsReportedWithTheResidual) {
