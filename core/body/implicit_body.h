@@ -69,10 +69,10 @@ class PosedField {
         g = static_cast<int>(groups_.size());
         groups_.emplace_back();
         group_names_.push_back(prims_[i].group);
-        double k = GroupBlend(prims_[i].group);
-        // The groin: a fillet that widens as the hip flexes, like the crease of the real body.
-        if (prims_[i].p.bone == kThighL || prims_[i].p.bone == kThighR) k += 0.06 * (1.0 - std::cos(Bend(t[kPelvis], t[prims_[i].p.bone])));
-        group_blend_.push_back(k * s);
+        // The groin keeps its rest fillet at any hip flexion: real flesh folds away in the flexed groin,
+        // and a fillet that widened with the flexion would add skin there for a garment to cover (it
+        // doubled the fully reinforced crouch's energy, docs/BODIES.md).
+        group_blend_.push_back(GroupBlend(prims_[i].group) * s);
       }
       ChainLink link;
       if (!groups_[g].empty()) {
