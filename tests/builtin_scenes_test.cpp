@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <nlohmann/json.hpp>
 
@@ -33,6 +34,7 @@ constexpr double kPenetrationTolerance_m = 0.5e-3;
 struct Expected {
   int min_vertices, max_vertices, open_ends;
   double budget;
+  double max_energy_J = std::numeric_limits<double>::infinity();  // fully reinforced, last frame
 };
 
 Expected ExpectedFor(const std::string& name) {
@@ -40,7 +42,10 @@ Expected ExpectedFor(const std::string& name) {
   if (name == "knee_flexion") return {2000, 4500, 2, 0.10};
   if (name == "knee_extension") return {2000, 4500, 2, 0.15};
   if (name == "slouch") return {12000, 30000, 4, 0.10};
-  return {7000, 13000, 3, 0.15};  // shorts: crouch, lunge
+  // The shorts. Their energy bounds guard the flexed groin: a blend between legs and trunk that widened
+  // with the hip's flexion spread the skin round the thighs and stored 20.87 J and 27.02 J (docs/BODIES.md).
+  if (name == "crouch") return {7000, 13000, 3, 0.15, 15.0};
+  return {7000, 13000, 3, 0.15, 25.0};  // lunge
 }
 
 class BuiltinScene : public ::testing::TestWithParam<std::string> {};
@@ -106,6 +111,7 @@ TEST_P(BuiltinScene, PosesGarmentAndFullyReinforcedFrames) {
     EXPECT_GT(r.reinforced_energy_J, previous) << name << " frame " << k + 1;
     previous = r.reinforced_energy_J;
   }
+  EXPECT_LT(frames->back().solve.energy_J, e.max_energy_J) << name;
 
   // The deformed pose on its own, from the body (what `kgd simulate NAME` does): the same equilibrium.
   const Result<SimulationResult> cold = SimulateScene(*scene);

@@ -70,8 +70,8 @@ class PosedField {
         groups_.emplace_back();
         group_names_.push_back(prims_[i].group);
         // The groin keeps its rest fillet at any hip flexion: real flesh folds away in the flexed groin,
-        // and a fillet that widened with the flexion would add skin there for a garment to cover (it
-        // doubled the fully reinforced crouch's energy, docs/BODIES.md).
+        // and a fillet widening with the flexion adds skin there for a garment to cover (twice the fully
+        // reinforced crouch's energy, docs/BODIES.md).
         group_blend_.push_back(GroupBlend(prims_[i].group) * s);
       }
       ChainLink link;
