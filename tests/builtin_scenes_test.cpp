@@ -42,8 +42,8 @@ Expected ExpectedFor(const std::string& name) {
   if (name == "knee_flexion") return {2000, 4500, 2, 0.10};
   if (name == "knee_extension") return {2000, 4500, 2, 0.15};
   if (name == "slouch") return {12000, 30000, 4, 0.10};
-  // The shorts. Their energy bounds guard the flexed groin: a blend between legs and trunk that widened
-  // with the hip's flexion spread the skin round the thighs and stored 20.87 J and 27.02 J (docs/BODIES.md).
+  // The shorts. Their energy bounds guard the flexed groin: a blend between legs and trunk widening with
+  // the hip's flexion spreads the skin round the thighs and stores 20.87 J and 27.02 J (docs/BODIES.md).
   if (name == "crouch") return {7000, 13000, 3, 0.15, 15.0};
   return {7000, 13000, 3, 0.15, 25.0};  // lunge
 }
