@@ -33,9 +33,11 @@ for s in "${scenes[@]}"; do
     if [ "$d" = all_reinforced ]; then
       c=$("$kgd" simulate "$s" --design "$d" --grad-tol 1e-8 --method lbfgs --max-iterations 10000 --json || true)
     fi
-    python3 - "$s" "$d" "$a" "$b" "$c" "$tmp/a.ply" "$tmp/b.ply" <<'PY'
-import json, math, os, struct, sys
-s, d, a, b, c, ply_a, ply_b = sys.argv[1:]
+    python3 - "$(dirname "$0")" "$s" "$d" "$a" "$b" "$c" "$tmp/a.ply" "$tmp/b.ply" <<'PY'
+import json, math, os, sys
+scripts, s, d, a, b, c, ply_a, ply_b = sys.argv[1:]
+sys.path.insert(0, scripts)
+from garment_energy_zones import read_ply
 def load(t):
     try:
         return json.loads(t)
@@ -48,25 +50,11 @@ def its(r):
     n = r.get("iterations", "-")
     return f"{n}" if r.get("status") == "converged" else f"{n}({r.get('status', 'failed')})"
 ratio = b.get("iterations", 0) / max(a.get("iterations", 1), 1)
-def read_ply(path):
-    # kgd's binary PLY: vertices (3 doubles), faces (uchar 3, 3 ints, uchar design, double energy density)
-    data = open(path, "rb").read()
-    end = data.index(b"end_header\n")
-    header = data[:end].decode()
-    nv = int(header.split("element vertex ")[1].split()[0])
-    nf = int(header.split("element face ")[1].split()[0])
-    i = end + len(b"end_header\n")
-    vertices = [struct.unpack_from("<3d", data, i + 24 * k) for k in range(nv)]
-    i += 24 * nv
-    faces = []
-    for _ in range(nf):
-        faces.append((struct.unpack_from("<3i", data, i + 1), struct.unpack_from("<d", data, i + 14)[0]))
-        i += 22
-    return vertices, faces
 moved = max_mm = median_um = slack = at_edge = float("nan")
 if os.path.exists(ply_a) and os.path.exists(ply_b):
-    va, _ = read_ply(ply_a)
-    vb, fb = read_ply(ply_b)
+    va = read_ply(ply_a)[0]
+    vb, faces_b, _, density_b = read_ply(ply_b)
+    fb = list(zip(faces_b, density_b))
     dist = [math.dist(p, q) for p, q in zip(va, vb)]
     moved = sum(x > 1e-4 for x in dist)
     max_mm = 1e3 * max(dist)
