@@ -15,9 +15,10 @@ REFERENCE (m^2), and the energy-weighted mean of each face's larger principal st
 POSED, how vertical its direction is in REFERENCE (|y|: 1 along the body, 0 around it), and the smaller
 principal stretch.
 """
-import math
 import struct
 import sys
+
+from skin_directions import principal_stretches
 
 
 def read_ply(path):
@@ -42,46 +43,6 @@ def read_ply(path):
     return vertices, faces, design, density
 
 
-def sub(a, b):
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-
-
-def dot(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-def cross(a, b):
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-def norm(a):
-    return math.sqrt(dot(a, a))
-
-
-def principal_stretches(r, p):
-    """Larger and smaller principal stretch of the triangle r -> p, and the larger one's direction in r."""
-    e1, e2 = sub(r[1], r[0]), sub(r[2], r[0])
-    n = cross(e1, e2)
-    b0 = tuple(c / norm(e1) for c in e1)
-    b1 = cross(tuple(c / norm(n) for c in n), b0)
-    # Rest edge matrix in the (b0, b1) frame and its inverse.
-    a, b, c, d = dot(e1, b0), dot(e2, b0), dot(e1, b1), dot(e2, b1)
-    det = a * d - b * c
-    inv = (d / det, -b / det, -c / det, a / det)
-    f1, f2 = sub(p[1], p[0]), sub(p[2], p[0])
-    # F = [f1 f2] * inv (3 x 2), columns g0 and g1.
-    g0 = tuple(f1[k] * inv[0] + f2[k] * inv[2] for k in range(3))
-    g1 = tuple(f1[k] * inv[1] + f2[k] * inv[3] for k in range(3))
-    c00, c01, c11 = dot(g0, g0), dot(g0, g1), dot(g1, g1)
-    mean, half = 0.5 * (c00 + c11), math.hypot(0.5 * (c00 - c11), c01)
-    big, small = math.sqrt(mean + half), math.sqrt(max(mean - half, 0.0))
-    # Eigenvector of C for the larger eigenvalue, in the frame, then in space.
-    vx, vy = (c01, mean + half - c00) if abs(c01) > 1e-15 else ((1.0, 0.0) if c00 >= c11 else (0.0, 1.0))
-    length = math.hypot(vx, vy)
-    direction = tuple((vx * b0[k] + vy * b1[k]) / length for k in range(3))
-    return big, small, direction
-
-
 def main():
     if len(sys.argv) not in (3, 5):
         sys.exit(__doc__)
@@ -96,15 +57,15 @@ def main():
     zones = {}
     total = 0.0
     for f, face in enumerate(faces):
-        r = [rv[k] for k in face]
-        p = [pv[k] for k in face]
-        area = 0.5 * norm(cross(sub(r[1], r[0]), sub(r[2], r[0])))
+        stretches = principal_stretches(rv, pv, face)
+        if stretches is None:  # degenerate in REFERENCE: no area, no energy
+            continue
+        big, small, direction, area = stretches
         energy = density[f] * area * thickness[1 if design[f] else 0]
         total += energy
-        centre = tuple(sum(v[k] for v in r) / 3 for k in range(3))
+        centre = tuple(sum(rv[k][i] for k in face) / 3 for i in range(3))
         fifth = min(4, int(5 * (centre[1] - y_lo) / (y_hi - y_lo)))
         side = "front" if centre[2] > z_mean else "back"
-        big, small, direction = principal_stretches(r, p)
         z = zones.setdefault((fifth, side), [0.0, 0.0, 0.0, 0.0, 0.0])
         z[0] += energy
         z[1] += area
