@@ -14,6 +14,7 @@
 #include "client/body_command.h"
 #include "job/cost_calibration.h"
 #include "core/mesh/mesh_io.h"
+#include "core/scene/body_garment.h"
 #include "core/scene/paper_scenes.h"
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
@@ -67,6 +68,35 @@ nlohmann::json ResultJson(const SceneSpec& scene, const SimulationResult& r) {
     j["max_phi_m"] = r.max_phi_m;
   }
   return j;
+}
+
+// The body's volume over the motion (scenes cut from a body), and a note when the motion changes it by
+// more than kBodyVolumeNoticeFraction: flesh keeps its volume, so the posed meshes are then collapsed or
+// swollen and the garment energies with them.
+void AddBodyVolumeJson(const SceneSpec& scene, nlohmann::json* j) {
+  if (!scene.motion) return;
+  const std::optional<BodyVolumeChange> c = MotionVolumeChange(*scene.motion);
+  if (!c) return;
+  (*j)["body_volume_rest_m3"] = c->rest_m3;
+  (*j)["body_volume_pose_m3"] = c->pose_m3;
+  (*j)["body_volume_frame"] = c->frame;
+  (*j)["body_volume_change"] = c->Relative();
+}
+
+void PrintBodyVolume(const SceneSpec& scene) {
+  if (!scene.motion) return;
+  const std::optional<BodyVolumeChange> c = MotionVolumeChange(*scene.motion);
+  if (!c) {
+    std::printf("body volume           - (the body surface is not closed)\n");
+    return;
+  }
+  const std::string where = c->frame == 0 ? "deformed" : "in frame " + std::to_string(c->frame);
+  const double rel = c->Relative();
+  std::printf("body volume           %.4g m^3 at rest, %.4g m^3 %s (%+.1f %%)\n", c->rest_m3, c->pose_m3, where.c_str(), 100 * rel);
+  if (std::abs(rel) > kBodyVolumeNoticeFraction)
+    std::printf("note                  the posed body %s %.1f %% of its volume; flesh keeps its volume, so the posed meshes are %s "
+                "(linear-blend skinning collapses bent joints) and the garment is stretched %s than on the body they stand for\n",
+                rel < 0 ? "loses" : "gains", 100 * std::abs(rel), rel < 0 ? "collapsed" : "swollen", rel < 0 ? "less" : "more");
 }
 
 // Where the time went: set-up (scene, model) and the solve's parts, each built term's evaluations.
@@ -180,7 +210,13 @@ int RunFrames(const SimulateOptions& o, const SceneSpec& scene) {
     std::cerr << "kgd simulate: " << r.message() << "\n";
     return 2;
   }
-  if (o.json) std::cout << nlohmann::json{{"scene", scene.name}, {"frames", frames}}.dump() << std::endl;
+  if (o.json) {
+    nlohmann::json j{{"scene", scene.name}, {"frames", frames}};
+    AddBodyVolumeJson(scene, &j);
+    std::cout << j.dump() << std::endl;
+  } else {
+    PrintBodyVolume(scene);
+  }
   if (!write_status.ok()) {
     std::cerr << "kgd simulate: " << write_status.message() << "\n";
     return 2;
@@ -218,10 +254,12 @@ int RunSimulate(const SimulateOptions& o) {
   setup.model_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_simulate).count() - r->solve.seconds;
   if (o.json) {
     nlohmann::json j = ResultJson(*scene, *r);
+    AddBodyVolumeJson(*scene, &j);
     if (o.profile) j["profile"] = ProfileJson(setup, r->solve);
     std::cout << j.dump() << std::endl;
   } else {
     PrintHuman(*scene, *r);
+    PrintBodyVolume(*scene);
     if (o.profile) PrintProfile(setup, r->solve);
   }
   if (!o.out.empty()) {

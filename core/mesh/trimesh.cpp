@@ -16,6 +16,20 @@ Eigen::VectorXd FaceAreas(const Positions& x, const Faces& faces) {
   return areas;
 }
 
+double EnclosedVolume(const Positions& x, const Faces& faces) {
+  if (faces.rows() == 0) return 0.0;
+  // Tetrahedra from a point near the surface rather than the origin: the same sum, less cancellation
+  // for a body far from the origin.
+  const Eigen::RowVector3d o = x.colwise().mean();
+  double six_v = 0.0;
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    const Eigen::Vector3d a = (x.row(faces(f, 0)) - o).transpose(), b = (x.row(faces(f, 1)) - o).transpose(),
+                          c = (x.row(faces(f, 2)) - o).transpose();
+    six_v += a.dot(b.cross(c));
+  }
+  return six_v / 6.0;
+}
+
 double MeanEdgeLength(const Positions& x, const Faces& faces) {
   if (faces.rows() == 0) return 0.0;
   double sum = 0.0;

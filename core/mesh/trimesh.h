@@ -24,6 +24,12 @@ struct TriMesh {
 // Area of every face (m^2).
 Eigen::VectorXd FaceAreas(const Positions& x, const Faces& faces);
 
+// Volume the surface encloses (m^3), by the divergence theorem: positive when the faces are
+// counter-clockwise seen from outside. Precondition: a closed surface (every edge shared by two faces
+// of opposite orientation, CheckClosedOrientedManifold); an open one gives a value that depends on
+// where the origin is.
+double EnclosedVolume(const Positions& x, const Faces& faces);
+
 // Mean length of all face edges (m); interior edges count twice, which is what averages over faces want.
 double MeanEdgeLength(const Positions& x, const Faces& faces);
 

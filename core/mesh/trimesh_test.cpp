@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 
+#include "core/mesh/topology.h"
 #include "core/scene/shapes.h"
 
 namespace kgd {
@@ -18,6 +19,23 @@ TEST(TriMesh, SheetAreasSumToTheRectangle) {
   EXPECT_NEAR(FaceAreas(m.vertices, m.faces).sum(), 0.014, 1e-12);
   EXPECT_NEAR(MeanEdgeLength(m.vertices, m.faces), 0.0025 * (2 + std::sqrt(2.0)) / 3, 1e-12);
   EXPECT_TRUE(ValidateMesh(m.vertices, m.faces, "sheet").ok());
+}
+
+// A unit cube of twelve triangles: 1 m^3 whatever its pose; scaled by s, s^3; turned inside out, -1.
+TEST(TriMesh, EnclosedVolumeOfACube) {
+  const TriMesh cube = BoxSurface(1, 1, 1);
+  const Positions& x = cube.vertices;
+  const Faces& f = cube.faces;
+  ASSERT_TRUE(CheckClosedOrientedManifold(f, "cube").ok());
+  EXPECT_NEAR(EnclosedVolume(x, f), 1.0, 1e-14);
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  Positions moved = x * r.transpose();
+  moved.rowwise() += Eigen::RowVector3d(5, -3, 2);
+  EXPECT_NEAR(EnclosedVolume(moved, f), 1.0, 1e-12);
+  EXPECT_NEAR(EnclosedVolume(0.1 * x, f), 1e-3, 1e-16);
+  Faces flipped = f;
+  flipped.col(1).swap(flipped.col(2));
+  EXPECT_NEAR(EnclosedVolume(x, flipped), -1.0, 1e-14);
 }
 
 TEST(TriMesh, LimbIsClosedAndOutwardOriented) {
@@ -36,6 +54,7 @@ TEST(TriMesh, LimbIsClosedAndOutwardOriented) {
     volume += a.dot(b.cross(c)) / 6.0;
   }
   for (const auto& [e, count] : edges) ASSERT_EQ(count, 2);
+  EXPECT_NEAR(EnclosedVolume(m.vertices, m.faces), volume, 1e-12 * std::abs(volume));
   EXPECT_EQ(m.vertices.rows() - static_cast<long>(edges.size()) + m.faces.rows(), 2);
   EXPECT_GT(volume, 0);
   // Normals on the cylinder point away from the axis.

@@ -7,6 +7,22 @@
 
 namespace kgd {
 
+std::optional<BodyVolumeChange> MotionVolumeChange(const BodyMotion& motion) {
+  if (!CheckClosedOrientedManifold(motion.faces, "body").ok()) return std::nullopt;
+  BodyVolumeChange c;
+  c.rest_m3 = EnclosedVolume(motion.rest, motion.faces);
+  if (!(c.rest_m3 > 0)) return std::nullopt;  // inside out
+  c.pose_m3 = EnclosedVolume(motion.deformed, motion.faces);
+  for (size_t k = 0; k < motion.frames.size(); ++k) {
+    const double v = EnclosedVolume(motion.frames[k], motion.faces);
+    if (std::abs(v - c.rest_m3) > std::abs(c.pose_m3 - c.rest_m3)) {
+      c.pose_m3 = v;
+      c.frame = static_cast<int>(k) + 1;
+    }
+  }
+  return c;
+}
+
 Status ValidateBodyMotion(const BodyMotion& m, const std::vector<std::string>& names) {
   auto name = [&](size_t i) { return i < names.size() ? names[i] : "pose " + std::to_string(i); };
   std::vector<const Positions*> poses = {&m.rest, &m.deformed};

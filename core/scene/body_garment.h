@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/SparseCore>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,20 @@ struct BodyMotion {
 // Finite coordinates and non-degenerate faces in every pose, one vertex count for all poses. `names`
 // gives the file (or description) of rest, deformed and each frame for the messages.
 Status ValidateBodyMotion(const BodyMotion& motion, const std::vector<std::string>& names);
+
+// How much a motion changes the volume the body's skin encloses, at the pose that changes it most
+// (rest excluded; the deformed pose and every frame). Flesh keeps its volume, so a large change says
+// the posed meshes are collapsed or swollen, as linear-blend skinning collapses bent joints, and that a
+// garment on them is stretched less (or more) than on the body they stand for.
+struct BodyVolumeChange {
+  double rest_m3 = 0;
+  double pose_m3 = 0;  // at the pose furthest from rest_m3
+  int frame = 0;       // that pose: 0 the deformed pose, k >= 1 frame k
+  double Relative() const { return (pose_m3 - rest_m3) / rest_m3; }
+};
+// Empty when the body surface is not closed and consistently oriented (its volume is then undefined).
+inline constexpr double kBodyVolumeNoticeFraction = 0.03;  // a change beyond this is worth telling the user
+std::optional<BodyVolumeChange> MotionVolumeChange(const BodyMotion& motion);
 
 struct GarmentCut {
   TriMesh garment;  // rest positions: from_body * motion rest

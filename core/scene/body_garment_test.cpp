@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "core/mesh/topology.h"
+#include "core/scene/shapes.h"
 
 namespace kgd {
 namespace {
@@ -81,6 +82,25 @@ TEST(BodyGarment, MotionValidationNamesThePose) {
   m.frames[0] = body.vertices.topRows(10);
   EXPECT_NE(ValidateBodyMotion(m, {"rest.obj", "pose.obj", "frame_01.obj"}).message().find("frame_01.obj: has 10 vertices"),
             std::string::npos);
+}
+
+// The volume a motion changes: a closed box shrunk by 10 % in every direction in its second frame
+// (0.9^3 of its volume), against an open grid, which has none.
+TEST(BodyGarment, MotionVolumeChangeFindsThePoseFurthestFromRest) {
+  const TriMesh box = BoxSurface(0.3, 0.5, 0.2);
+  const Positions& x = box.vertices;
+  const Faces& f = box.faces;
+  Positions moved = x;
+  moved.rowwise() += Eigen::RowVector3d(0.1, 0.2, 0.3);
+  const BodyMotion m{f, x, moved, {moved, 0.9 * x, 1.02 * x}};
+  const std::optional<BodyVolumeChange> c = MotionVolumeChange(m);
+  ASSERT_TRUE(c.has_value());
+  EXPECT_NEAR(c->rest_m3, 0.03, 1e-15);
+  EXPECT_EQ(c->frame, 2);
+  EXPECT_NEAR(c->Relative(), 0.9 * 0.9 * 0.9 - 1.0, 1e-12);
+  EXPECT_NEAR(MotionVolumeChange(BodyMotion{f, x, moved, {}})->Relative(), 0.0, 1e-12);
+  const TriMesh open = Grid();
+  EXPECT_FALSE(MotionVolumeChange(BodyMotion{open.faces, open.vertices, open.vertices, {}}).has_value());
 }
 
 }  // namespace

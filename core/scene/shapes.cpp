@@ -5,6 +5,15 @@
 
 namespace kgd {
 
+TriMesh BoxSurface(double x, double y, double z) {
+  TriMesh m;
+  m.vertices.resize(8, 3);
+  for (int v = 0; v < 8; ++v) m.vertices.row(v) << x * (v & 1), y * ((v >> 1) & 1), z * ((v >> 2) & 1);
+  m.faces.resize(12, 3);
+  m.faces << 0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5;
+  return m;
+}
+
 TriMesh RectangleSheet(double width, double length, double spacing) {
   const int nx = static_cast<int>(std::lround(width / spacing)) + 1;
   const int nz = static_cast<int>(std::lround(length / spacing)) + 1;

@@ -12,6 +12,9 @@ namespace kgd {
 // split by the "/" diagonal, as in the authors' 2D sample (10 x 14 cm, 2.5 mm: 41 x 57 vertices).
 TriMesh RectangleSheet(double width_m, double length_m, double spacing_m);
 
+// Closed box [0, x] x [0, y] x [0, z] of twelve triangles, normals outward.
+TriMesh BoxSurface(double x_m, double y_m, double z_m);
+
 struct LimbShape {
   double radius_m = 0.04;          // tube radius away from the joint
   double length_m = 0.36;          // length of the cylindrical part (caps added at both ends)
