@@ -26,8 +26,7 @@ Eigen::VectorXd FaceAreas(const Positions& x, const Faces& faces);
 
 // Volume the surface encloses (m^3), by the divergence theorem: positive when the faces are
 // counter-clockwise seen from outside. Precondition: a closed surface (every edge shared by two faces
-// of opposite orientation, CheckClosedOrientedManifold); an open one gives a value that depends on
-// where the origin is.
+// of opposite orientation, CheckClosedOrientedManifold); for an open one the value is not a volume.
 double EnclosedVolume(const Positions& x, const Faces& faces);
 
 // Mean length of all face edges (m); interior edges count twice, which is what averages over faces want.
