@@ -29,6 +29,7 @@
 #include "job/design_job.h"
 #include "core/beso/design_loop.h"
 #include "core/mesh/mesh_io.h"
+#include "core/scene/body_garment.h"
 #include "core/scene/simulate.h"
 #include "store/design_file.h"
 #include "core/scene/builtin_scenes.h"
@@ -132,6 +133,10 @@ int RunDesign(const DesignOptions& o) {
   } else if (!bar && !o.json) {
     std::printf("design %s -> %s (budget %.3g)\n", scene.name.c_str(), path.c_str(), settings.budget);
   }
+  // A collapsed (or swollen) posed body understates (or overstates) what the design resists: say so first.
+  if (!o.json && !resume && scene.motion)
+    if (const std::optional<BodyVolumeChange> v = MotionVolumeChange(*scene.motion))
+      if (const std::string note = BodyVolumeNote(*v); !note.empty()) std::printf("note: %s; body volume %s\n", note.c_str(), DescribeBodyVolume(*v).c_str());
   Status write_status = Status::Ok();
   std::vector<double> recent;  // seconds of the last iterations, for the ETA
   double elapsed = 0;

@@ -90,13 +90,8 @@ void PrintBodyVolume(const SceneSpec& scene) {
     std::printf("body volume           - (the body surface is not closed)\n");
     return;
   }
-  const std::string where = c->frame == 0 ? "deformed" : "in frame " + std::to_string(c->frame);
-  const double rel = c->Relative();
-  std::printf("body volume           %.4g m^3 at rest, %.4g m^3 %s (%+.1f %%)\n", c->rest_m3, c->pose_m3, where.c_str(), 100 * rel);
-  if (std::abs(rel) > kBodyVolumeNoticeFraction)
-    std::printf("note                  the posed body %s %.1f %% of its volume; flesh keeps its volume, so the posed meshes are %s "
-                "(linear-blend skinning collapses bent joints) and the garment is stretched %s than on the body they stand for\n",
-                rel < 0 ? "loses" : "gains", 100 * std::abs(rel), rel < 0 ? "collapsed" : "swollen", rel < 0 ? "less" : "more");
+  std::printf("body volume           %s\n", DescribeBodyVolume(*c).c_str());
+  if (const std::string note = BodyVolumeNote(*c); !note.empty()) std::printf("note                  %s\n", note.c_str());
 }
 
 // Where the time went: set-up (scene, model) and the solve's parts, each built term's evaluations.

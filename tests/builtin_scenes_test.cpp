@@ -187,7 +187,7 @@ std::string RunKgd(const std::string& args, int* exit_code) {
 }
 
 // A body whose posed mesh has lost volume, as linear-blend skinning loses it at bent joints: `kgd
-// simulate` says by how much and what it means for the garment (the knee flexion scene as files, its
+// simulate` and `kgd design` say by how much and what it means for the garment (the knee flexion scene as files, its
 // deformed body shrunk by 5 % about its centroid: 0.95^3 of its volume).
 TEST(BuiltinScenes, SimulateNamesABodyThatLosesVolume) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "kgd_volume_test";
@@ -214,10 +214,18 @@ TEST(BuiltinScenes, SimulateNamesABodyThatLosesVolume) {
   const nlohmann::json j = nlohmann::json::parse(json.substr(json.find('{')));
   EXPECT_NEAR(j["body_volume_change"].get<double>(), expected, 1e-9);
   EXPECT_EQ(j["body_volume_frame"].get<int>(), 0);
+  // A design job on it says so before it starts.
+  const std::string design =
+      RunKgd("design " + (dir / "scene.json").string() + " --iterations 1 --out " + (dir / "design.h5").string(), &code);
+  EXPECT_EQ(code, 0) << design;
+  EXPECT_NE(design.find(std::string("note: the posed body ") + percent), std::string::npos) << design;
   // The built-in body as it is keeps its volume: no note.
   const std::string as_built = RunKgd("simulate knee_flexion --max-iterations 1", &code);
   EXPECT_NE(as_built.find("body volume "), std::string::npos) << as_built;
   EXPECT_EQ(as_built.find("note "), std::string::npos) << as_built;
+  const std::string as_built_design = RunKgd("design knee_flexion --iterations 1 --out " + (dir / "built_in.h5").string(), &code);
+  EXPECT_EQ(code, 0) << as_built_design;
+  EXPECT_EQ(as_built_design.find("note"), std::string::npos) << as_built_design;
   std::filesystem::remove_all(dir);
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "core/mesh/topology.h"
 
@@ -21,6 +22,24 @@ std::optional<BodyVolumeChange> MotionVolumeChange(const BodyMotion& motion) {
     }
   }
   return c;
+}
+
+std::string DescribeBodyVolume(const BodyVolumeChange& c) {
+  char buf[160];
+  const std::string where = c.frame == 0 ? "deformed" : "in frame " + std::to_string(c.frame);
+  std::snprintf(buf, sizeof buf, "%.4g m^3 at rest, %.4g m^3 %s (%+.1f %%)", c.rest_m3, c.pose_m3, where.c_str(), 100 * c.Relative());
+  return buf;
+}
+
+std::string BodyVolumeNote(const BodyVolumeChange& c) {
+  const double rel = c.Relative();
+  if (std::abs(rel) <= kBodyVolumeNoticeFraction) return "";
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "the posed body %s %.1f %% of its volume; flesh keeps its volume, so the posed meshes are %s (linear-blend "
+                "skinning collapses bent joints) and the garment is stretched %s than on the body they stand for",
+                rel < 0 ? "loses" : "gains", 100 * std::abs(rel), rel < 0 ? "collapsed" : "swollen", rel < 0 ? "less" : "more");
+  return buf;
 }
 
 Status ValidateBodyMotion(const BodyMotion& m, const std::vector<std::string>& names) {

@@ -39,6 +39,10 @@ struct BodyVolumeChange {
 // Empty when the body surface is not closed and consistently oriented (its volume is then undefined).
 inline constexpr double kBodyVolumeNoticeFraction = 0.03;  // a change beyond this is worth telling the user
 std::optional<BodyVolumeChange> MotionVolumeChange(const BodyMotion& motion);
+// For people: "0.05504 m^3 at rest, 0.04939 m^3 deformed (-10.3 %)".
+std::string DescribeBodyVolume(const BodyVolumeChange& c);
+// Why a change beyond kBodyVolumeNoticeFraction matters, in one line; empty for a smaller change.
+std::string BodyVolumeNote(const BodyVolumeChange& c);
 
 struct GarmentCut {
   TriMesh garment;  // rest positions: from_body * motion rest

@@ -98,7 +98,11 @@ TEST(BodyGarment, MotionVolumeChangeFindsThePoseFurthestFromRest) {
   EXPECT_NEAR(c->rest_m3, 0.03, 1e-15);
   EXPECT_EQ(c->frame, 2);
   EXPECT_NEAR(c->Relative(), 0.9 * 0.9 * 0.9 - 1.0, 1e-12);
+  EXPECT_EQ(DescribeBodyVolume(*c), "0.03 m^3 at rest, 0.02187 m^3 in frame 2 (-27.1 %)");
+  EXPECT_NE(BodyVolumeNote(*c).find("loses 27.1 % of its volume"), std::string::npos) << BodyVolumeNote(*c);
   EXPECT_NEAR(MotionVolumeChange(BodyMotion{f, x, moved, {}})->Relative(), 0.0, 1e-12);
+  EXPECT_EQ(BodyVolumeNote(*MotionVolumeChange(BodyMotion{f, x, 1.0099 * x, {}})), "");  // +3.0 %: within the threshold
+  EXPECT_NE(BodyVolumeNote(*MotionVolumeChange(BodyMotion{f, x, 1.02 * x, {}})).find("gains 6.1 %"), std::string::npos);
   const TriMesh open = Grid();
   EXPECT_FALSE(MotionVolumeChange(BodyMotion{open.faces, open.vertices, open.vertices, {}}).has_value());
 }
