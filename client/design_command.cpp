@@ -136,7 +136,8 @@ int RunDesign(const DesignOptions& o) {
   // A collapsed (or swollen) posed body understates (or overstates) what the design resists: say so first.
   if (!o.json && !resume && scene.motion)
     if (const std::optional<BodyVolumeChange> v = MotionVolumeChange(*scene.motion))
-      if (const std::string note = BodyVolumeNote(*v); !note.empty()) std::printf("note: %s; body volume %s\n", note.c_str(), DescribeBodyVolume(*v).c_str());
+      if (const std::string note = BodyVolumeNote(*v); !note.empty())
+        std::printf("note: %s; body volume %s\n", note.c_str(), DescribeBodyVolume(*v).c_str());
   Status write_status = Status::Ok();
   std::vector<double> recent;  // seconds of the last iterations, for the ETA
   double elapsed = 0;

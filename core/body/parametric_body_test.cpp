@@ -23,13 +23,6 @@ const ParametricBody& Body() {
   return *body;
 }
 
-double SignedVolume(const Positions& x, const Faces& f) {
-  double v = 0;
-  for (Eigen::Index i = 0; i < f.rows(); ++i)
-    v += Eigen::Vector3d(x.row(f(i, 0))).dot(Eigen::Vector3d(x.row(f(i, 1))).cross(Eigen::Vector3d(x.row(f(i, 2))))) / 6.0;
-  return v;
-}
-
 TEST(ParametricBody, RestSurfaceIsAClosedOutwardSphereOfTheRightSize) {
   const ParametricBody& b = Body();
   const TriMesh& m = b.rest;
@@ -39,7 +32,7 @@ TEST(ParametricBody, RestSurfaceIsAClosedOutwardSphereOfTheRightSize) {
   EXPECT_TRUE(s.ok()) << s.message();
   EXPECT_EQ(EulerCharacteristic(m.faces), 2);  // watertight, no handles: no openings to document
   EXPECT_TRUE(ValidateMesh(m.vertices, m.faces, "body").ok());
-  const double volume = SignedVolume(m.vertices, m.faces);
+  const double volume = EnclosedVolume(m.vertices, m.faces);
   EXPECT_GT(volume, 0.04);  // outward normals; a 1.70 m adult is about 0.06-0.07 m^3
   EXPECT_LT(volume, 0.09);
   const double height = m.vertices.col(1).maxCoeff() - m.vertices.col(1).minCoeff();

@@ -11,15 +11,6 @@
 namespace kgd {
 namespace {
 
-double SignedVolume(const TriMesh& m) {
-  double v = 0;
-  for (Eigen::Index f = 0; f < m.faces.rows(); ++f) {
-    const Eigen::Vector3d a = m.vertices.row(m.faces(f, 0)), b = m.vertices.row(m.faces(f, 1)), c = m.vertices.row(m.faces(f, 2));
-    v += a.dot(b.cross(c)) / 6.0;
-  }
-  return v;
-}
-
 TEST(SurfaceNets, SphereIsAClosedOutwardManifoldNearTheSurface) {
   const double r = 0.1037, h = 0.01;  // not a multiple of h: no surface point on a grid node
   const TriMesh m = SurfaceNets([&](const Eigen::Vector3d& p) { return p.norm() - r; }, Eigen::Vector3d::Constant(-0.15),
@@ -29,7 +20,7 @@ TEST(SurfaceNets, SphereIsAClosedOutwardManifoldNearTheSurface) {
   EXPECT_EQ(EulerCharacteristic(m.faces), 2);
   for (Eigen::Index v = 0; v < m.vertices.rows(); ++v) EXPECT_NEAR(m.vertices.row(v).norm(), r, h);
   const double volume = 4.0 / 3.0 * std::acos(-1.0) * r * r * r;
-  EXPECT_NEAR(SignedVolume(m), volume, 0.05 * volume);  // positive: faces point outwards
+  EXPECT_NEAR(EnclosedVolume(m.vertices, m.faces), volume, 0.05 * volume);  // positive: faces point outwards
   EXPECT_TRUE(SelfIntersections(m.vertices, m.faces).empty());
 }
 

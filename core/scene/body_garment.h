@@ -36,8 +36,8 @@ struct BodyVolumeChange {
   int frame = 0;       // that pose: 0 the deformed pose, k >= 1 frame k
   double Relative() const { return (pose_m3 - rest_m3) / rest_m3; }
 };
-// Empty when the body surface is not closed and consistently oriented (its volume is then undefined).
 inline constexpr double kBodyVolumeNoticeFraction = 0.03;  // a change beyond this is worth telling the user
+// Empty when the body surface is not closed and consistently oriented (its volume is then undefined).
 std::optional<BodyVolumeChange> MotionVolumeChange(const BodyMotion& motion);
 // For people: "0.05504 m^3 at rest, 0.04939 m^3 deformed (-10.3 %)".
 std::string DescribeBodyVolume(const BodyVolumeChange& c);
