@@ -6,15 +6,6 @@
 
 namespace kgd::server {
 
-const char* RoleName(Role role) {
-  switch (role) {
-    case Role::kUser: return "user";
-    case Role::kAdmin: return "admin";
-    case Role::kWorker: return "worker";
-  }
-  return "?";
-}
-
 Status TokenTable::Add(const std::string& token, const std::string& user, Role role) {
   if (token.size() < 16) return Status::Error("a token must have at least 16 characters");
   if (user.empty()) return Status::Error("a token needs a user");

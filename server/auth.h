@@ -20,8 +20,6 @@ namespace kgd::server {
 
 enum class Role { kUser, kAdmin, kWorker };
 
-const char* RoleName(Role role);  // "user", "admin", "worker"
-
 struct Caller {
   std::string user;          // the token's user; empty for the anonymous caller
   Role role = Role::kAdmin;  // the anonymous caller may do everything

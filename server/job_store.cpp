@@ -259,15 +259,6 @@ Result<std::vector<v1::Job>> JobStore::ListJobs(v1::JobState state, int64_t befo
   return out;
 }
 
-std::vector<int64_t> JobStore::JobsInState(v1::JobState state) {
-  std::lock_guard lock(mu_);
-  Stmt s(db_, "SELECT id FROM jobs WHERE state = ? ORDER BY id");
-  s.Bind(1, static_cast<int>(state));
-  std::vector<int64_t> out;
-  while (s.Step() == SQLITE_ROW) out.push_back(s.Int(0));
-  return out;
-}
-
 int64_t JobStore::QueuedJobsOf(const std::string& owner) {
   std::lock_guard lock(mu_);
   Stmt s(db_, "SELECT COUNT(*) FROM jobs WHERE owner = ? AND state = ?");

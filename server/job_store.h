@@ -54,7 +54,6 @@ class JobStore {
   Result<std::vector<v1::Job>> ListJobs(v1::JobState state, int64_t before_id, int limit, const std::optional<std::string>& owner = {});
   // Jobs of `owner` waiting in the queue.
   int64_t QueuedJobsOf(const std::string& owner);
-  std::vector<int64_t> JobsInState(v1::JobState state);
   // Jobs in each state (states without jobs are absent).
   std::map<v1::JobState, int64_t> CountByState();
 

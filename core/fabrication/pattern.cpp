@@ -480,12 +480,6 @@ Result<std::vector<FlatPositions>> FlattenPieces(const std::vector<const Positio
 
 }  // namespace
 
-Result<FlatPositions> FlattenDisk(const Positions& x, const Faces& faces) {
-  Result<std::vector<FlatPositions>> flat = FlattenPieces({&x}, {&faces}, {}, {});
-  if (!flat.ok()) return flat.status();
-  return std::move(flat->front());
-}
-
 // Cuts `garment` along `seams` and flattens every piece (see FlattenPieces for `hopeless`). A piece cut
 // from one piece of `refined` (a pattern of fewer seams) starts from its flat shape there.
 Result<Pattern> CutAlong(const TriMesh& garment, const std::vector<Seam>& seams, std::map<EdgeKey, std::vector<int>>& edge_faces,

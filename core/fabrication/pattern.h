@@ -30,11 +30,6 @@ struct Distortion {
 };
 Distortion MeasureDistortion(const Positions& x, const Faces& faces, const FlatPositions& uv);
 
-// Flattens a disk-shaped mesh (one boundary loop, Euler characteristic 1) as above (a planar piece
-// exactly, in its own plane); counter-clockwise
-// faces stay counter-clockwise. Errors: not a disk, or the solver failing (named).
-Result<FlatPositions> FlattenDisk(const Positions& x, const Faces& faces);
-
 // One pattern piece: garment faces, its own vertices (a garment vertex on a seam appears once per side),
 // its rest shape and flat shape.
 struct PatternPiece {

@@ -26,8 +26,6 @@ bool Pinned() {
 
 }  // namespace
 
-bool NumericKernelsPinned() { return Pinned(); }
-
 void PinNumericKernels(char** argv) {
   if (Pinned() || std::getenv("KGD_NATIVE_KERNELS")) return;
   // Set by the first execution: never loop when the pinned environment does not take.

@@ -26,7 +26,4 @@ namespace kgd {
 // warning and returns with the machine's own kernels.
 void PinNumericKernels(char** argv);
 
-// True when this process runs with the pinned kernels (what PinNumericKernels set up).
-bool NumericKernelsPinned();
-
 }  // namespace kgd
