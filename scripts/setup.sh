@@ -57,3 +57,15 @@ if [ ! -f "$WEB/node_modules/.package-lock.json" ] || [ "$WEB/package-lock.json"
 else
   echo "setup: client/web/node_modules is up to date"
 fi
+
+# The Kubernetes schemas that tests/deploy validates the manifests against (kubernetes-models,
+# @kubernetes-models/keda), exactly as locked; not in an image's build stage, which has no tests/.
+DEPLOY_TESTS="$(cd "$(dirname "$0")/.." && pwd)/tests/deploy"
+if [ ! -f "$DEPLOY_TESTS/package-lock.json" ]; then
+  :
+elif [ ! -f "$DEPLOY_TESTS/node_modules/.package-lock.json" ] || [ "$DEPLOY_TESTS/package-lock.json" -nt "$DEPLOY_TESTS/node_modules/.package-lock.json" ]; then
+  echo "setup: npm ci in tests/deploy"
+  (cd "$DEPLOY_TESTS" && npm ci --no-audit --no-fund --loglevel=error)
+else
+  echo "setup: tests/deploy/node_modules is up to date"
+fi
