@@ -1,5 +1,5 @@
-// Attachments: the closed form of the energy, the gradient and the constant Hessian the system
-// assembles, against central differences, at rest on the anchor and pulled off it in any direction.
+// Attachments: the closed form of the energy, and the gradient and Hessian of the garment system's
+// attachment term against central differences, at rest on the anchor and pulled off it in any direction.
 #include "core/sim/attachment.h"
 
 #include <gtest/gtest.h>
@@ -7,6 +7,7 @@
 #include <random>
 
 #include "core/sim/finite_difference_check.h"
+#include "core/sim/garment_system.h"
 
 namespace kgd {
 namespace {
@@ -21,22 +22,41 @@ Attachments TwoFaces() {
   return a;
 }
 
-// The attachment of face i as a term on its 9 coordinates, with the Hessian the garment system adds:
-// (2 k_f / 9) on the diagonal of every 3x3 block.
-testing::TermFunction Term(const Attachments& a, int i) {
-  return [&a, i](const Eigen::VectorXd& q, Eigen::VectorXd* g, Eigen::MatrixXd* H) {
-    Eigen::Matrix<double, 9, 1> g9;
-    const double E = EvaluateAttachmentFace(a, i, q.segment<3>(0), q.segment<3>(3), q.segment<3>(6), g ? &g9 : nullptr);
-    if (g) *g = g9;
-    if (H) {
-      H->setZero(9, 9);
-      const double c = 2.0 * AttachmentFaceStiffness(a) / 9.0;
-      for (int r = 0; r < 3; ++r)
-        for (int s = 0; s < 3; ++s) H->block<3, 3>(3 * r, 3 * s).diagonal().array() += c;
-    }
-    return E;
-  };
-}
+// The garment system's attachment term (MakeAttachmentTerm) on a model with ten faces, `a` attached.
+struct SystemTerm {
+  GarmentModel model;
+  std::vector<MembraneElement> elements;
+  Lame lame[2];
+  double thickness[2] = {0, 0};
+  std::vector<Eigen::Vector3d> fold_reference;
+  std::vector<NeighborCache> caches;
+  std::vector<FrictionVertex> friction;
+  Hinges hinges;
+  std::unique_ptr<EnergyTerm> term;
+
+  explicit SystemTerm(const Attachments& a) {
+    model.faces.resize(10, 3);
+    model.effects.attachments = true;
+    model.attachments = a;
+    term = MakeAttachmentTerm(TermContext{model, elements, lame, thickness, fold_reference, caches, friction, hinges});
+  }
+  // Face f as a term on its three vertices' coordinates: the energy, gradient and Hessian the system
+  // assembles.
+  testing::TermFunction Face(int f) {
+    return [this, f](const Eigen::VectorXd& q, Eigen::VectorXd* g, Eigen::MatrixXd* H) {
+      Positions x(3, 3);
+      for (int v = 0; v < 3; ++v) x.row(v) = q.segment<3>(3 * v).transpose();
+      const int v[3] = {0, 1, 2};
+      Vector9d g9 = Vector9d::Zero();
+      Matrix9d H9 = Matrix9d::Zero();
+      const ElementEnergy e = term->Evaluate(f, v, x, g ? g9.data() : nullptr, H ? H9.data() : nullptr);
+      EXPECT_TRUE(e.derivatives) << "attached face " << f;
+      if (g) *g = g9;
+      if (H) *H = H9;
+      return e.energy_J;
+    };
+  }
+};
 
 TEST(Attachment, EnergyIsThePerFaceSpringOnTheCentroid) {
   const Attachments a = TwoFaces();
@@ -54,8 +74,12 @@ TEST(Attachment, EnergyIsThePerFaceSpringOnTheCentroid) {
   EXPECT_EQ(AttachmentFaceStiffness(Attachments{}), 0.0);
 }
 
-TEST(Attachment, GradientAndHessianMatchFiniteDifferences) {
+// The system's term: its energy is EvaluateAttachmentFace's, its gradient and its (constant, PSD)
+// Hessian match central differences, and it leaves the exact Hessian as it is (its own projection).
+TEST(Attachment, SystemTermMatchesFiniteDifferences) {
   const Attachments a = TwoFaces();
+  SystemTerm system(a);
+  ASSERT_TRUE(system.term);
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-0.01, 0.01);
   for (int i = 0; i < 2; ++i) {
@@ -65,10 +89,18 @@ TEST(Attachment, GradientAndHessianMatchFiniteDifferences) {
       for (int v = 0; v < 3; ++v)
         q.segment<3>(3 * v) = a.anchors.row(i).transpose() + Eigen::Vector3d(u(rng), u(rng), u(rng)) * (v == 0 ? 1.0 : pull);
       SCOPED_TRACE("face " + std::to_string(i) + " pull " + std::to_string(pull));
-      EXPECT_TRUE(testing::MatchesFiniteDifferences(Term(a, i), q, {.step = 1e-6, .tolerance = 1e-6, .gradient_floor = 1e-3, .hessian_floor = 1.0}));
-      EXPECT_TRUE(testing::ProjectionIsPsd(Term(a, i), Term(a, i), q));
+      const testing::TermFunction term = system.Face(a.faces[i]);
+      EXPECT_EQ(term(q, nullptr, nullptr), EvaluateAttachmentFace(a, i, q.segment<3>(0), q.segment<3>(3), q.segment<3>(6), nullptr));
+      EXPECT_TRUE(testing::MatchesFiniteDifferences(term, q, {.step = 1e-6, .tolerance = 1e-6, .gradient_floor = 1e-3, .hessian_floor = 1.0}));
+      EXPECT_TRUE(testing::ProjectionIsPsd(testing::WithFiniteDifferenceHessian(term, 1e-6), term, q, 1e-6));
     }
   }
+  // A face that is not attached adds nothing.
+  Positions x = Positions::Zero(3, 3);
+  const int v[3] = {0, 1, 2};
+  const ElementEnergy free_face = system.term->Evaluate(5, v, x, nullptr, nullptr);
+  EXPECT_EQ(free_face.energy_J, 0.0);
+  EXPECT_FALSE(free_face.derivatives);
 }
 
 }  // namespace
