@@ -64,8 +64,15 @@ TEST(FoldBarrier, GradientAndHessianMatchFiniteDifferences) {
     ++active;
     SCOPED_TRACE("trial " + std::to_string(trial));
     EXPECT_TRUE(testing::MatchesFiniteDifferences(term(false), q, {.step = 1e-9, .tolerance = 1e-4, .gradient_floor = 1e-4, .hessian_floor = 1e-2}));
+    // The projected Hessian is the Gauss-Newton part b'' grad q grad q^T (scale 1 here): with the
+    // gradient g = b' grad q, it is b'' g g^T / b'^2 (PSD, rank one).
     Eigen::MatrixXd P;
-    term(true)(q, nullptr, &P);
+    Eigen::VectorXd g;
+    term(true)(q, &g, &P);
+    const Eigen::Vector3d x0 = q.segment<3>(0), x1 = q.segment<3>(3), x2 = q.segment<3>(6);
+    const FoldBarrierValue bq = FoldBarrierFunction((x1 - x0).cross(x2 - x0).dot(n) / (2 * area));
+    const Eigen::MatrixXd gauss_newton = (bq.ddb / (bq.db * bq.db)) * g * g.transpose();
+    EXPECT_LT((P - gauss_newton).norm(), 1e-9 * gauss_newton.norm());
     EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(P).eigenvalues().minCoeff(), -1e-9 * P.norm());
   }
   EXPECT_GT(active, 15);
@@ -77,6 +84,78 @@ TEST(FoldBarrier, InactiveForAnUndeformedTriangle) {
   EXPECT_EQ(EvaluateFoldBarrier({0, 0, 0}, {0.01, 0, 0}, {0, 0.01, 0}, n, 0.5e-4, 1.0, &g, nullptr, true), 0.0);
   EXPECT_EQ(g.norm(), 0.0);
   EXPECT_TRUE(std::isinf(EvaluateFoldBarrier({0, 0, 0}, {0, 0.01, 0}, {0.01, 0, 0}, n, 0.5e-4, 1.0, nullptr, nullptr, true)));
+}
+
+// A 1 cm right triangle (rest area 0.5 cm^2) in the plane normal to n, its third vertex moved towards
+// the first edge so that its projected area ratio is q, and rotated by `tilt` about that edge and by
+// `spin` in its plane (neither changes q's formula: the tilt is compensated).
+Vector9d TriangleWithAreaRatio(double q, double spin, double tilt, const Eigen::Vector3d& n) {
+  const Eigen::Vector3d a0 = n.unitOrthogonal(), b0 = n.cross(a0);
+  const Eigen::Vector3d a = std::cos(spin) * a0 + std::sin(spin) * b0, b = n.cross(a);
+  Vector9d x;
+  x.segment<3>(0) = Eigen::Vector3d(0.003, -0.002, 0.001);
+  x.segment<3>(3) = x.segment<3>(0) + 0.01 * a;
+  // Height h along b tilted by `tilt` towards n: the projected height h cos(tilt) = 0.01 q.
+  x.segment<3>(6) = x.segment<3>(0) + 0.004 * a + (0.01 * q / std::cos(tilt)) * (std::cos(tilt) * b + std::sin(tilt) * n);
+  return x;
+}
+
+// Where the barrier is off (q >= q^: undeformed, stretched, tilted less than the activation angle) the
+// energy, gradient and Hessian, exact and projected, are exactly zero, as central differences say; across the activation boundary (q^ within 1e-9 either side, the differences'
+// step straddling it) energy, gradient and Hessian go to zero continuously; just inside it the
+// derivatives match central differences tightly.
+TEST(FoldBarrier, ZeroWhereInactiveAndContinuousAcrossActivation) {
+  const Eigen::Vector3d n = Eigen::Vector3d(-0.3, 0.1, 1.0).normalized();
+  const double area = 0.5e-4, qh = kFoldBarrierActivation;
+  auto term = [&](bool project) -> testing::TermFunction {
+    return [&, project](const Eigen::VectorXd& v, Eigen::VectorXd* g, Eigen::MatrixXd* h) {
+      Vector9d g9;
+      Matrix9d h9;
+      const double E = EvaluateFoldBarrier(v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), n, area, 1.0, g ? &g9 : nullptr,
+                                           h ? &h9 : nullptr, project);
+      if (g) *g = g9;
+      if (h) *h = h9;
+      return E;
+    };
+  };
+  auto ratio = [&](const Vector9d& x) {
+    return (x.segment<3>(3) - x.segment<3>(0)).cross(x.segment<3>(6) - x.segment<3>(0)).dot(n) / (2 * area);
+  };
+  // Off: from just past q^ to stretched, in the plane and tilted (by up to 80 degrees, q held).
+  for (double q : {qh * (1 + 1e-5), 0.15, 0.5, 1.0, 1.6}) {
+    for (auto [spin, tilt] : {std::pair{0.0, 0.0}, {0.9, 0.6}, {2.5, 1.4}}) {
+      const Vector9d x = TriangleWithAreaRatio(q, spin, tilt, n);
+      SCOPED_TRACE(::testing::Message() << "q " << q << " tilt " << tilt);
+      ASSERT_NEAR(ratio(x), q, 1e-9);
+      for (bool project : {false, true}) {
+        Eigen::VectorXd g;
+        Eigen::MatrixXd H;
+        EXPECT_EQ(term(project)(x, &g, &H), 0.0);
+        EXPECT_EQ(g.norm(), 0.0);
+        EXPECT_EQ(H.norm(), 0.0);
+      }
+      EXPECT_TRUE(testing::MatchesFiniteDifferences(term(false), x, {.step = 1e-9, .tolerance = 1e-5, .gradient_floor = 1e-6, .hessian_floor = 1e-3}));
+    }
+  }
+  // The scale of the barrier's derivatives 1 % inside the boundary: the floors across it.
+  Eigen::VectorXd g_in;
+  Eigen::MatrixXd H_in;
+  term(false)(TriangleWithAreaRatio(0.99 * qh, 0.9, 0.6, n), &g_in, &H_in);
+  ASSERT_GT(g_in.norm(), 0);
+  for (double q : {qh * (1 - 1e-9), qh, qh * (1 + 1e-9)}) {
+    const Vector9d x = TriangleWithAreaRatio(q, 0.9, 0.6, n);
+    SCOPED_TRACE(::testing::Message() << "q - q^ = " << q - qh);
+    Eigen::VectorXd g;
+    Eigen::MatrixXd H;
+    EXPECT_LT(term(false)(x, &g, &H), 1e-20);
+    EXPECT_LT(g.norm(), 1e-12 * g_in.norm());
+    EXPECT_LT(H.norm(), 1e-6 * H_in.norm());
+    EXPECT_TRUE(testing::MatchesFiniteDifferences(term(false), x, {.step = 1e-9, .tolerance = 1e-4, .gradient_floor = g_in.norm(), .hessian_floor = H_in.norm()}));
+  }
+  // Just inside (1e-3 of q^): active, every derivative matching central differences to its own scale.
+  const Vector9d x = TriangleWithAreaRatio(qh * (1 - 1e-3), 0.9, 0.6, n);
+  EXPECT_GT(term(false)(x, nullptr, nullptr), 0.0);
+  EXPECT_TRUE(testing::MatchesFiniteDifferences(term(false), x, {.step = 1e-9, .tolerance = 1e-5}));
 }
 
 }  // namespace
