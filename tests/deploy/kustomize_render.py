@@ -11,7 +11,8 @@ Supported, as `kubectl kustomize` (kustomize v5) renders them:
                    `files` (KEY=PATH or PATH) and `literals` (KEY=VALUE), `type`; only with
                    generatorOptions.disableNameSuffixHash (no name hashes)
   patches          JSON 6902 patches (add, replace, remove) on targets by kind, name, namespace, group, version
-Anything else in a kustomization is an error (RenderError): an unsupported field is never ignored.
+Anything else in a kustomization is an error (RenderError): an unsupported field is never ignored. Stricter
+than kustomize: a patch whose target matches no object is an error too (kustomize skips it).
 
 render(folder) -> list of objects (dicts). Secret data is base64 without line breaks; kubectl wraps it at
 70 columns, which the API server ignores, so compare with normalized() objects.
