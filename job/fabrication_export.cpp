@@ -6,6 +6,8 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <future>
@@ -52,8 +54,21 @@ Status CheckOptions(const ExportOptions& o) {
   if (o.formats.empty()) return Status::Error("export: no format asked for (svg, dxf, png)");
   for (const std::string& f : o.formats)
     if (!known.count(f)) return Status::Error("export: unknown format '" + f + "' (svg, dxf, png)");
-  if (!(o.cleaning.min_feature_m >= 0) || !(o.sheet.seam_allowance_mm >= 0) || !(o.sheet.sheet_width_mm > 0) || !(o.sheet.gap_mm >= 0))
-    return Status::Error("export: minimum feature, seam allowance and gap must be >= 0 and the sheet width > 0");
+  // Each length finite and within what a garment and a vinyl roll can be; the message names the value.
+  struct Length {
+    const char* what;
+    double mm, max_mm;
+    bool zero_allowed;
+  };
+  for (const Length& l : {Length{"minimum feature (--min-feature-mm, minFeatureMm)", 1000 * o.cleaning.min_feature_m, kMaxExportFeatureMm, true},
+                          Length{"seam allowance (--seam-allowance-mm, seamAllowanceMm)", o.sheet.seam_allowance_mm, kMaxExportFeatureMm, true},
+                          Length{"sheet width (--sheet-width-mm, sheetWidthMm)", o.sheet.sheet_width_mm, kMaxSheetWidthMm, false},
+                          Length{"gap between patches", o.sheet.gap_mm, kMaxExportFeatureMm, true}})
+    if (!std::isfinite(l.mm) || l.mm < 0 || (l.mm == 0 && !l.zero_allowed) || l.mm > l.max_mm) {
+      char text[320];
+      std::snprintf(text, sizeof text, "export: the %s %g mm is not a finite number in %s0, %g] mm", l.what, l.mm, l.zero_allowed ? "[" : "(", l.max_mm);
+      return Status::Error(text);
+    }
   return Status::Ok();
 }
 

@@ -17,6 +17,10 @@
 
 namespace kgd {
 
+// The largest lengths an export takes: a minimum feature, seam allowance or gap (mm), and a vinyl
+// roll's width (mm). Larger, or not finite, is refused naming the value.
+constexpr double kMaxExportFeatureMm = 100, kMaxSheetWidthMm = 10000;
+
 struct ExportOptions {
   int iteration = -1;                 // -1: the last iteration within the budget (else the last)
   CleaningOptions cleaning;
@@ -50,7 +54,8 @@ struct ExportReport {
 // along the scene's seams if it gives them (SceneSpec::seams):
 // pattern.svg / .dxf / .png (pieces), patches.svg / .dxf / .png (the vinyl sheet; PNG: previews) per `formats`, and
 // report.json. Every file is written under a temporary name and renamed only when all are written: a
-// failed export leaves no file behind. Errors name the file, the iteration or the format.
+// failed export leaves no file behind. Errors name the file, the iteration, the format or the option
+// out of range (kMaxExportFeatureMm, kMaxSheetWidthMm) with its value.
 Result<ExportReport> ExportDesign(const std::string& design_file, const std::string& out_dir, const ExportOptions& options);
 
 // The same for a scene's own design (a scene file's, or a built-in scene's such as pull_test_line):

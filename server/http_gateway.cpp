@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -419,8 +420,8 @@ void HttpGateway::Impl::Routes() {
                  char* end = nullptr;
                  const std::string v = req.get_param_value(param);
                  const double d = std::strtod(v.c_str(), &end);
-                 if (v.empty() || end != v.c_str() + v.size() || !(d >= 0))
-                   return SetError(res, 400, ServiceCode::kInvalidArgument, std::string(param) + " '" + v + "' is not a number >= 0");
+                 if (v.empty() || end != v.c_str() + v.size() || !std::isfinite(d) || d < 0)
+                   return SetError(res, 400, ServiceCode::kInvalidArgument, std::string(param) + " '" + v + "' is not a finite number >= 0");
                  (r.*set)(d);
                }
              v1::ExportDesignResponse out;
