@@ -12,6 +12,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -242,6 +243,12 @@ double Sample(const std::string& text, const std::string& series) {
   return -1;
 }
 
+// The design file of a job, as the server stores it.
+std::string StoredDesignFile(const std::string& id) {
+  std::ifstream in(Service().dir() + "/data/jobs/job-" + id + ".h5", std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
 TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
   const v1::Job job = Create(SleeveJob(6, "arrays"));
   const std::string id = std::to_string(job.id());
@@ -398,14 +405,20 @@ TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
   // The design file of an ended job, byte for byte as the server stores it.
   auto h5 = cli.Get("/v1/jobs/" + id + "/design-file");
   ASSERT_TRUE(h5 && h5->status == 200);
-  std::ifstream in(Service().dir() + "/data/jobs/job-" + id + ".h5", std::ios::binary);
-  EXPECT_EQ(h5->body, std::string(std::istreambuf_iterator<char>(in), {}));
+  EXPECT_EQ(h5->body, StoredDesignFile(id));
 }
 
-TEST_F(HttpApi, CancelStopsARunningJob) {
+TEST_F(HttpApi, CancelStopsARunningJobWhoseDesignFileIsRefusedUntilItEnds) {
   const v1::Job job = Create(SleeveJob(400, "cancel"));
   const std::string id = std::to_string(job.id());
   ASSERT_TRUE(WaitFor([&] { return Get(id).iterations() >= 2; }, 300)) << Service().Log();
+  // While it runs, its design file is refused (it is still being written).
+  ASSERT_EQ(Get(id).state(), v1::RUNNING);
+  auto early = Service().Client().Get("/v1/jobs/" + id + "/design-file");
+  ASSERT_TRUE(early);
+  EXPECT_EQ(early->status, 400) << early->body;
+  EXPECT_NE(early->body.find("\"status\": \"FAILED_PRECONDITION\""), std::string::npos) << early->body;
+  EXPECT_NE(early->body.find("job " + id + " is RUNNING: its design file is still being written"), std::string::npos) << early->body;
   auto res = Service().Client().Post("/v1/jobs/" + id + ":cancel", "", "application/json");
   ASSERT_TRUE(res);
   ASSERT_EQ(res->status, 200) << res->body;
@@ -414,10 +427,13 @@ TEST_F(HttpApi, CancelStopsARunningJob) {
   const v1::Job done = Get(id);
   EXPECT_EQ(done.state(), v1::CANCELLED);
   EXPECT_LT(done.iterations(), 400);
-  // While it ran, its design file was refused; now that it has ended it is served.
+  // Now that it has ended, the design file is served, byte for byte as stored.
   auto h5 = Service().Client().Get("/v1/jobs/" + id + "/design-file");
   ASSERT_TRUE(h5);
-  EXPECT_EQ(h5->status, 200);
+  EXPECT_EQ(h5->status, 200) << h5->body;
+  EXPECT_EQ(h5->get_header_value("Content-Type"), "application/x-hdf5");
+  EXPECT_EQ(h5->body.substr(0, 8), std::string("\x89HDF\r\n\x1a\n", 8));
+  EXPECT_EQ(h5->body, StoredDesignFile(id));
 }
 
 TEST_F(HttpApi, AJobListIsPagedAndFilteredByState) {
@@ -434,12 +450,34 @@ TEST_F(HttpApi, AJobListIsPagedAndFilteredByState) {
   const auto page2 = Parse<v1::ListJobsResponse>(second->body);
   ASSERT_EQ(page2.jobs_size(), 1);
   EXPECT_LT(page2.jobs(0).id(), page1.jobs(0).id()) << "newest first";
-  ASSERT_TRUE(WaitFor([&] { return Ended(std::to_string(page1.jobs(0).id())); }, 300));
-  auto succeeded = cli.Get("/v1/jobs?state=SUCCEEDED");
-  ASSERT_TRUE(succeeded && succeeded->status == 200);
-  const auto list = Parse<v1::ListJobsResponse>(succeeded->body);
-  EXPECT_GT(list.jobs_size(), 0);
-  for (const auto& j : list.jobs()) EXPECT_EQ(j.state(), v1::SUCCEEDED);
+  // Jobs in four states at once: list-b SUCCEEDED, a long one RUNNING (the fixture's worker runs one
+  // job at a time), one QUEUED behind it, and one CANCELLED while queued.
+  const std::string succeeded = std::to_string(page1.jobs(0).id());
+  ASSERT_TRUE(WaitFor([&] { return Ended(succeeded); }, 300));
+  ASSERT_EQ(Get(succeeded).state(), v1::SUCCEEDED) << Get(succeeded).failure();
+  const std::string running = std::to_string(Create(SleeveJob(400, "list-running")).id());
+  ASSERT_TRUE(WaitFor([&] { return Get(running).state() == v1::RUNNING; }, 300)) << Service().Log();
+  const std::string queued = std::to_string(Create(SleeveJob(1, "list-queued")).id());
+  const std::string cancelled = std::to_string(Create(SleeveJob(1, "list-cancelled")).id());
+  ASSERT_TRUE(cli.Post("/v1/jobs/" + cancelled + ":cancel", "", "application/json"));
+  ASSERT_EQ(Get(queued).state(), v1::QUEUED);
+  ASSERT_EQ(Get(cancelled).state(), v1::CANCELLED);
+  const std::map<std::string, std::string> mine = {{succeeded, "SUCCEEDED"}, {running, "RUNNING"}, {queued, "QUEUED"}, {cancelled, "CANCELLED"}};
+  for (const char* state : {"SUCCEEDED", "RUNNING", "QUEUED", "CANCELLED", "FAILED"}) {
+    auto res = cli.Get(std::string("/v1/jobs?pageSize=1000&state=") + state);
+    ASSERT_TRUE(res && res->status == 200) << state;
+    const auto list = Parse<v1::ListJobsResponse>(res->body);
+    std::set<std::string> listed;
+    for (const auto& j : list.jobs()) {
+      EXPECT_EQ(v1::JobState_Name(j.state()), state) << "job " << j.id() << " listed under state=" << state;
+      listed.insert(std::to_string(j.id()));
+    }
+    // Of this test's four jobs, exactly the one in that state.
+    for (const auto& [id, its_state] : mine)
+      EXPECT_EQ(listed.count(id), its_state == state ? 1u : 0u) << "job " << id << " (" << its_state << ") under state=" << state;
+  }
+  cli.Post("/v1/jobs/" + queued + ":cancel", "", "application/json");
+  cli.Post("/v1/jobs/" + running + ":cancel", "", "application/json");
 }
 
 TEST_F(HttpApi, AnUploadedSceneFileWithItsMeshesRuns) {
