@@ -64,13 +64,25 @@ std::unique_ptr<v1::DesignService::Stub> Connect(const std::string& server) {
   return v1::DesignService::NewStub(*channel);
 }
 
+// What a server that cannot be reached should make the user do, from gRPC's error: a plaintext
+// connection that a server closes at once is one with TLS; a failed handshake, the wrong CA (or a
+// server without TLS).
+std::string ReachHint(const std::string& error) {
+  const std::string& ca = ClientConnection().tls_ca;
+  if (ca.empty() && error.find("Socket closed") != std::string::npos)
+    return "the server closed the plaintext connection: a server with TLS needs the CA that signed its certificate (--tls-ca, or $KGD_TLS_CA)";
+  if (!ca.empty() && error.find("andshake failed") != std::string::npos)
+    return "the TLS handshake failed: the server must serve TLS with a certificate signed by the CA in " + ca + " (--tls-ca)";
+  return "start one with `kgd serve --data DIR` or set --server";
+}
+
 // gRPC errors as exit codes: unknown job and bad requests are the user's (2), the rest the server's (1).
 int FailRpc(const char* command, const std::string& server, const grpc::Status& st) {
   const bool users = st.error_code() == grpc::StatusCode::NOT_FOUND || st.error_code() == grpc::StatusCode::INVALID_ARGUMENT ||
                      st.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED;
   if (st.error_code() == grpc::StatusCode::UNAVAILABLE || st.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED)
-    std::fprintf(stderr, "kgd %s: cannot reach the design server at %s (%s); start one with `kgd serve --data DIR` or set --server\n",
-                 command, server.c_str(), st.error_message().c_str());
+    std::fprintf(stderr, "kgd %s: cannot reach the design server at %s (%s); %s\n", command, server.c_str(), st.error_message().c_str(),
+                 ReachHint(st.error_message()).c_str());
   else
     std::fprintf(stderr, "kgd %s: %s\n", command, st.error_message().c_str());
   return users ? 2 : 1;

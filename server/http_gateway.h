@@ -28,6 +28,10 @@
 //   GET  /v1/jobs/{id}/garment/rest.f32                  V x 3 float32, the rest shape (m)
 //   GET  /v1/jobs/{id}/body/vertices.f32, faces.u32      the body in the deformed pose (404: none)
 //   GET  /v1/jobs/{id}/design-file                       the job's HDF5 design file, once it has ended
+//   GET  /v1/jobs/{id}/evaluation                        DesignEvaluation, its arrays left out (404: none yet)
+//   GET  /v1/jobs/{id}/evaluation/frames/{k}/{positions,body,energy}.f32   frame k (1..): V x 3 float32 (m),
+//        the body's vertices (float32, m), F float32 (J/m^2)
+//   GET  /v1/jobs/{id}/evaluation/baselines/{line,x}/{positions.f32,design.u8,energy.f32}   a baseline's arrays
 //   GET  /v1/jobs/{id}/iterations/{n}/cut/{pattern,patches}.{svg,dxf,png}, report.json   cut files (docs/FABRICATION.md;
 //        ?minFeatureMm=&seamAllowanceMm=&sheetWidthMm=&mirror=false), made by geometry alone
 //   GET  /                                               the web page (static files of web_dir)

@@ -2,17 +2,22 @@
 // for the TLS cases, certificates from a throwaway CA that openssl makes in the test), a kgd-worker
 // with a worker token, reached over gRPC and HTTP. No token is UNAUTHENTICATED; a user cannot see,
 // watch, fetch, export or cancel another's job on any RPC or HTTP route (NOT_FOUND, the same answer
-// as for a job that does not exist); a worker token cannot list or read; an admin sees all; a
-// non-loopback address without TLS and tokens is refused.
+// as for a job that does not exist) while the owner and an admin get each route's own answer (every
+// route server/http_gateway.cpp registers is in the table); a worker token cannot list or read; a
+// non-loopback address without TLS and tokens is refused; a client without the server's CA is told so.
+#include <google/protobuf/util/json_util.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
+#include <regex>
 #include <thread>
 
 #include "kgd/v1/kgd.grpc.pb.h"
@@ -172,8 +177,57 @@ TEST_F(Security, NoTokenOrAWrongOneIsUnauthenticatedOnBothDoors) {
   EXPECT_EQ(cookie_post->status, 401);
 }
 
+// The routes server/http_gateway.cpp registers, as {method, path pattern}: a route added there
+// without a request in this test's table fails the test.
+std::vector<std::pair<std::string, std::string>> RegisteredRoutes() {
+  const std::string source = ReadText(std::string(KGD_SOURCE_DIR) + "/server/http_gateway.cpp");
+  const std::regex registration(R"re(http\.(Get|Post)\(\s*(?:R"\((.*?)\)"|"([^"]*)"))re");
+  std::vector<std::pair<std::string, std::string>> out;
+  for (auto it = std::sregex_iterator(source.begin(), source.end(), registration); it != std::sregex_iterator(); ++it)
+    out.push_back({(*it)[1] == "Get" ? "GET" : "POST", (*it)[2].matched ? (*it)[2].str() : (*it)[3].str()});
+  return out;
+}
+
+// A body strip of 6 x 2 quads of 1 cm as OBJ, stretched along x by `stretch` with its middle lifted
+// `lift_m`.
+std::string StripObj(double stretch, double lift_m) {
+  std::string obj;
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 7; ++i)
+      obj += "v " + std::to_string(0.01 * i * stretch) + " " + std::to_string(0.01 * j) + " " + std::to_string(lift_m * (1 - std::abs(i - 3) / 3.0)) + "\n";
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 6; ++i) {
+      const int a = 7 * j + i + 1, b = a + 1, c = a + 7, d = c + 1;
+      obj += "f " + std::to_string(a) + " " + std::to_string(b) + " " + std::to_string(d) + "\nf " + std::to_string(a) + " " + std::to_string(d) + " " +
+             std::to_string(c) + "\n";
+    }
+  return obj;
+}
+
+// Alice's job for the route table, small enough to take a second: the strip's 24 faces are the
+// garment, attached at both ends (two bands, so the evaluation has its Line and X baselines), over a
+// motion of one frame (the deformed pose: 5 % longer, the middle lifted 2 mm); 3 iterations.
+httplib::MultipartFormDataItems StripJob() {
+  const std::string scene = R"({"body": {"rest": "rest.obj", "deformed": "pose.obj", "frames": ["pose.obj"]},
+      "garment": {"region": "region.txt", "subdivisions": 1}, "attachments": {"body_faces": "ends.txt"}, "effects": {"attachments": true}})";
+  std::string region;
+  for (int f = 0; f < 24; ++f) region += std::to_string(f) + "\n";
+  return {{"scene", scene, "scene.json", "application/json"},
+          {"spec", R"({"optimizer": {"maxIterations": 3}})", "spec.json", "application/json"},
+          {"rest.obj", StripObj(1, 0), "rest.obj", "text/plain"},
+          {"pose.obj", StripObj(1.05, 0.002), "pose.obj", "text/plain"},
+          {"region.txt", region, "region.txt", "text/plain"},
+          {"ends.txt", "0\n1\n12\n13\n10\n11\n22\n23\n", "ends.txt", "text/plain"}};
+}
+
 TEST_F(Security, AUserCannotSeeWatchFetchExportOrCancelAnothersJobOnAnyRoute) {
-  const v1::Job job = CreateAs(kAlice, 3);
+  // Alice's job, created by HTTP (the route POST /v1/jobs) and run to its end.
+  const httplib::MultipartFormDataItems upload = StripJob();
+  auto created = Http(kAlice).Post("/v1/jobs", upload);
+  ASSERT_TRUE(created);
+  ASSERT_EQ(created->status, 200) << created->body;
+  v1::Job job;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(created->body, &job).ok()) << created->body;
   EXPECT_EQ(job.owner(), "alice");
   ASSERT_TRUE(WaitFor([&] { return Ended(StateAs(kAlice, job.id())); }, 300));
   ASSERT_EQ(StateAs(kAlice, job.id()), v1::SUCCEEDED);
@@ -197,11 +251,7 @@ TEST_F(Security, AUserCannotSeeWatchFetchExportOrCancelAnothersJobOnAnyRoute) {
     v1::GetEvaluationRequest ev;
     ev.set_id(job_id);
     v1::DesignEvaluation evr;
-    grpc::Status evs = stub->GetEvaluation(As(token).get(), ev, &evr);
-    // A job without an evaluation is NOT_FOUND for its owner too; only the wording differs.
-    out.push_back({"GetEvaluation", evs.error_code() == grpc::StatusCode::NOT_FOUND && evs.error_message().find("has no evaluation") != std::string::npos
-                                        ? grpc::Status::OK
-                                        : evs});
+    out.push_back({"GetEvaluation", stub->GetEvaluation(As(token).get(), ev, &evr)});
     v1::ExportDesignRequest ex;
     ex.set_id(job_id);
     ex.set_iteration(-1);
@@ -231,6 +281,8 @@ TEST_F(Security, AUserCannotSeeWatchFetchExportOrCancelAnothersJobOnAnyRoute) {
     EXPECT_EQ(as_bob[k].second.error_code(), grpc::StatusCode::NOT_FOUND) << as_bob[k].first << " as bob";
     // The same answer as for an id that does not exist, but for the number.
     std::string msg = as_bob[k].second.error_message(), ref = as_missing[k].second.error_message();
+    ASSERT_NE(msg.find(id), std::string::npos) << as_bob[k].first << ": " << msg;
+    ASSERT_NE(ref.find(missing), std::string::npos) << as_missing[k].first << ": " << ref;
     msg.replace(msg.find(id), id.size(), "N");
     ref.replace(ref.find(missing), missing.size(), "N");
     EXPECT_EQ(msg, ref) << as_bob[k].first;
@@ -250,30 +302,115 @@ TEST_F(Security, AUserCannotSeeWatchFetchExportOrCancelAnothersJobOnAnyRoute) {
   EXPECT_FALSE(listed(kBob));
   EXPECT_TRUE(listed(kRoot));
 
-  // HTTP: every route on the job, as bob: 404 NOT_FOUND; as alice: not 404 and not 401/403.
-  const std::vector<std::string> gets = {"", ":watch", "/iterations/-1", "/iterations/0/positions.f32", "/iterations/0/energy.f32",
-                                         "/iterations/0/design.u8", "/iterations/0/design.ply", "/iterations/-1/cut/report.json",
-                                         "/garment/faces.u32", "/garment/rest.f32", "/body/vertices.f32", "/design-file", "/evaluation"};
-  for (const std::string& route : gets) {
-    auto bob = Http(kBob).Get("/v1/jobs/" + id + route);
-    ASSERT_TRUE(bob) << route;
-    EXPECT_EQ(bob->status, 404) << route << ": " << bob->body;
-    EXPECT_NE(bob->body.find("\"NOT_FOUND\""), std::string::npos) << route;
-    EXPECT_NE(bob->body.find("job " + id + " does not exist"), std::string::npos) << route << ": " << bob->body;
-    auto alice = Http(kAlice).Get("/v1/jobs/" + id + route);
-    ASSERT_TRUE(alice) << route;
-    EXPECT_TRUE(alice->status != 401 && alice->status != 403 && (alice->status != 404 || alice->body.find("does not exist") == std::string::npos))
-        << route << ": " << alice->status << " " << alice->body;
+  // HTTP: every route, by each kind of caller. The sizes the binary arrays must have.
+  v1::GetIterationRequest ireq;
+  ireq.set_id(job.id());
+  ireq.set_iteration(-1);
+  ireq.set_with_garment(true);
+  v1::GetIterationResponse last;
+  ASSERT_TRUE(stub->GetIteration(As(kAlice).get(), ireq, &last).ok());
+  const v1::Garment& g = last.garment();
+  const size_t nv = g.rest_vertices_size() / 3, nf = g.faces_size() / 3, body_floats = g.body_vertices_size(), body_ints = g.body_faces_size();
+  ASSERT_GT(nf, 0u);
+  ASSERT_GT(body_ints, 0u);
+  // A body check: "" when the body is what the route serves, else what is wrong.
+  using Check = std::function<std::string(const std::string&)>;
+  auto bytes = [](size_t n) -> Check {
+    return [n](const std::string& b) { return b.size() == n ? "" : std::to_string(b.size()) + " bytes, not " + std::to_string(n); };
+  };
+  auto starts = [](const std::string& prefix) -> Check {
+    return [prefix](const std::string& b) { return b.rfind(prefix, 0) == 0 ? "" : "does not start with '" + prefix + "'"; };
+  };
+  auto has = [](const std::string& part) -> Check {
+    return [part](const std::string& b) { return b.find(part) != std::string::npos ? "" : "has no '" + part + "'"; };
+  };
+  const std::string png(std::string("\x89PNG\r\n\x1a\n", 8)), hdf5(std::string("\x89HDF\r\n\x1a\n", 8));
+  const std::string json = "application/json", octets = "application/octet-stream";
+  // Who asks: the owner, an admin, another user, a worker, and no one (no token).
+  enum Who { kOwner, kAdmin, kOther, kWorkerToken, kNobody };
+  const std::map<Who, std::string> tokens = {{kOwner, kAlice}, {kAdmin, kRoot}, {kOther, kBob}, {kWorkerToken, kWorker}, {kNobody, ""}};
+  struct Route {
+    std::string method, path;  // path: with the job's id and a query where the route takes one
+    std::map<Who, int> status;  // the HTTP status each caller gets (kNobody: always 401)
+    std::string type;           // the Content-Type of the success
+    Check body;                 // the success's body
+  };
+  const std::map<Who, int> job_route = {{kOwner, 200}, {kAdmin, 200}, {kOther, 404}, {kWorkerToken, 403}};
+  const std::string j = "/v1/jobs/" + id;
+  std::vector<Route> routes = {
+      {"GET", "/metrics", {{kOwner, 403}, {kAdmin, 200}, {kOther, 403}, {kWorkerToken, 403}}, "text/plain; version=0.0.4; charset=utf-8",
+       has("kgd_jobs_created_total")},
+      {"GET", "/v1/scenes", {{kOwner, 200}, {kAdmin, 200}, {kOther, 200}, {kWorkerToken, 200}}, json, has("\"sleeve_on_limb\"")},
+      {"GET", "/v1/jobs?pageSize=1000&state=SUCCEEDED", {{kOwner, 200}, {kAdmin, 200}, {kWorkerToken, 403}}, json, has("\"id\":\"" + id + "\"")},
+      // Alice's creation above; a worker cannot create.
+      {"POST", "/v1/jobs", {{kWorkerToken, 403}}, json, has("\"owner\":\"alice\"")},
+      {"GET", j, job_route, json, has("\"owner\":\"alice\"")},
+      {"POST", j + ":cancel", job_route, json, has("\"state\":\"SUCCEEDED\"")},
+      {"GET", j + ":watch", job_route, "text/event-stream", has("event: iteration")},
+      {"GET", j + "/iterations/-1?withGarment=true", job_route, json, has("\"garment\"")},
+      {"GET", j + "/iterations/-1/positions.f32", job_route, octets, bytes(12 * nv)},
+      {"GET", j + "/iterations/-1/energy.f32", job_route, octets, bytes(4 * nf)},
+      {"GET", j + "/iterations/-1/design.u8", job_route, octets, bytes(nf)},
+      {"GET", j + "/iterations/-1/design.ply", job_route, octets, starts("ply\nformat binary_little_endian 1.0\n")},
+      {"GET", j + "/evaluation", job_route, json, has("\"baselines\"")},
+      {"GET", j + "/evaluation/frames/1/positions.f32", job_route, octets, bytes(12 * nv)},
+      {"GET", j + "/evaluation/frames/1/body.f32", job_route, octets, bytes(4 * body_floats)},
+      {"GET", j + "/evaluation/frames/1/energy.f32", job_route, octets, bytes(4 * nf)},
+      {"GET", j + "/garment/faces.u32", job_route, octets, bytes(12 * nf)},
+      {"GET", j + "/garment/rest.f32", job_route, octets, bytes(12 * nv)},
+      {"GET", j + "/body/vertices.f32", job_route, octets, bytes(4 * body_floats)},
+      {"GET", j + "/body/faces.u32", job_route, octets, bytes(4 * body_ints)},
+      {"GET", j + "/design-file", job_route, "application/x-hdf5", starts(hdf5)},
+      {"GET", j + "/iterations/-1/cut/pattern.svg", job_route, "image/svg+xml", has("<svg")},
+      {"GET", j + "/iterations/-1/cut/patches.svg", job_route, "image/svg+xml", has("<svg")},
+      {"GET", j + "/iterations/-1/cut/pattern.dxf", job_route, "application/dxf", has("SECTION")},
+      {"GET", j + "/iterations/-1/cut/patches.dxf", job_route, "application/dxf", has("SECTION")},
+      {"GET", j + "/iterations/-1/cut/pattern.png", job_route, "image/png", starts(png)},
+      {"GET", j + "/iterations/-1/cut/patches.png", job_route, "image/png", starts(png)},
+      {"GET", j + "/iterations/-1/cut/report.json", job_route, json, has("\"pieces\"")},
+  };
+  for (const char* name : {"line", "x"}) {
+    const std::string b = j + "/evaluation/baselines/" + name;
+    routes.push_back({"GET", b + "/positions.f32", job_route, octets, bytes(12 * nv)});
+    routes.push_back({"GET", b + "/design.u8", job_route, octets, bytes(nf)});
+    routes.push_back({"GET", b + "/energy.f32", job_route, octets, bytes(4 * nf)});
   }
-  auto cancel = Http(kBob).Post("/v1/jobs/" + id + ":cancel", "", "application/json");
-  ASSERT_TRUE(cancel);
-  EXPECT_EQ(cancel->status, 404);
+  // Every route the gateway registers is in the table.
+  for (const auto& [method, pattern] : RegisteredRoutes()) {
+    bool requested = false;
+    for (const Route& r : routes) requested |= r.method == method && std::regex_match(r.path.substr(0, r.path.find('?')), std::regex(pattern));
+    EXPECT_TRUE(requested) << method << " " << pattern << " (server/http_gateway.cpp) has no request in this test's table";
+  }
+  EXPECT_GE(RegisteredRoutes().size(), 20u) << "the routes were not found in server/http_gateway.cpp";
+
+  for (const Route& r : routes) {
+    std::map<Who, int> expected = r.status;
+    expected[kNobody] = 401;
+    for (const auto& [who, status] : expected) {
+      httplib::Client c = Http(tokens.at(who));
+      const std::string what = r.method + " " + r.path + " as " + (who == kNobody ? "no one" : tokens.at(who));
+      auto res = r.method == "GET" ? c.Get(r.path) : r.path == "/v1/jobs" ? c.Post(r.path, upload) : c.Post(r.path, "", "application/json");
+      ASSERT_TRUE(res) << what << ": " << httplib::to_string(res.error());
+      EXPECT_EQ(res->status, status) << what << ": " << res->body.substr(0, 300);
+      if (res->status != status) continue;
+      if (status == 200) {
+        EXPECT_EQ(res->get_header_value("Content-Type"), r.type) << what;
+        const std::string wrong = r.body(res->body);
+        EXPECT_EQ(wrong, "") << what;
+        continue;
+      }
+      const std::map<int, std::string> names = {{401, "UNAUTHENTICATED"}, {403, "PERMISSION_DENIED"}, {404, "NOT_FOUND"}};
+      EXPECT_NE(res->body.find("\"status\": \"" + names.at(status) + "\""), std::string::npos) << what << ": " << res->body;
+      // Another user's job: the same answer as a job that does not exist.
+      if (status == 404) {
+        EXPECT_NE(res->body.find("\"message\": \"job " + id + " does not exist\""), std::string::npos) << what << ": " << res->body;
+      }
+    }
+  }
+  // Bob's list does not show alice's job.
   auto list = Http(kBob).Get("/v1/jobs");
   ASSERT_TRUE(list && list->status == 200);
   EXPECT_EQ(list->body.find("\"id\":\"" + id + "\""), std::string::npos) << list->body;
-  auto root_list = Http(kRoot).Get("/v1/jobs");
-  ASSERT_TRUE(root_list && root_list->status == 200);
-  EXPECT_NE(root_list->body.find("\"id\":\"" + id + "\""), std::string::npos) << root_list->body;
 }
 
 TEST_F(Security, AWorkerTokenLeasesButCannotListOrReadAndAUserCannotLease) {
@@ -333,20 +470,50 @@ TEST_F(Security, ANonLoopbackAddressNeedsTlsAndTokensOrInsecure) {
   EXPECT_TRUE(WaitFor([&] { return ReadText(dir + "/open.log").find("listening on") != std::string::npos; }, 30)) << ReadText(dir + "/open.log");
 }
 
-// A throwaway CA and a server certificate for 127.0.0.1 it signed, by openssl; empty when openssl is absent.
+// A throwaway CA and a server certificate for 127.0.0.1 it signed, and another CA (other.pem) that
+// signed nothing, by openssl; empty when openssl is absent.
 std::string MakeCertificates(const std::string& dir) {
   fs::create_directories(dir);
   const std::string cmd = "cd " + dir +
                           " && openssl req -x509 -newkey rsa:2048 -nodes -keyout ca.key -out ca.pem -days 1 -subj /CN=kgd-test-ca 2>/dev/null"
                           " && openssl req -newkey rsa:2048 -nodes -keyout server.key -out server.csr -subj /CN=127.0.0.1 2>/dev/null"
                           " && printf 'subjectAltName=IP:127.0.0.1,DNS:localhost\\n' > san.ext"
-                          " && openssl x509 -req -in server.csr -CA ca.pem -CAkey ca.key -CAcreateserial -out server.pem -days 1 -extfile san.ext 2>/dev/null";
+                          " && openssl x509 -req -in server.csr -CA ca.pem -CAkey ca.key -CAcreateserial -out server.pem -days 1 -extfile san.ext 2>/dev/null"
+                          " && openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -keyout other.key -out other.pem -days 1"
+                          " -subj /CN=another-ca 2>/dev/null";
   return std::system(cmd.c_str()) == 0 ? dir : "";
+}
+
+// Runs `args` to its exit: {exit code, output}; {-1, output} when it is still running after 30 s or
+// has written `serving` (then it is killed).
+std::pair<int, std::string> RunToExit(const std::vector<std::string>& args, const std::string& log, const std::string& serving) {
+  Process p = Process::Spawn(args, log);
+  int status = 0;
+  bool exited = false;
+  WaitFor([&] {
+    exited = exited || waitpid(p.pid, &status, WNOHANG) == p.pid;
+    return exited || ReadText(log).find(serving) != std::string::npos;
+  }, 30);
+  if (exited) p.pid = -1;  // reaped
+  return {exited && WIFEXITED(status) ? WEXITSTATUS(status) : -1, ReadText(log)};
 }
 
 TEST(SecurityTls, GrpcAndHttpRoundTripsOverTlsWithAThrowawayCa) {
   const std::string certs = MakeCertificates((fs::temp_directory_path() / ("kgd_security_tls_" + std::to_string(getpid()))).string());
   if (certs.empty()) GTEST_SKIP() << "openssl is not installed: no throwaway CA";
+  // TLS without tokens on an address other machines reach: each door refuses to start, saying tokens are missing.
+  const std::vector<std::string> tls_files = {"--tls-cert", certs + "/server.pem", "--tls-key", certs + "/server.key"};
+  for (const std::string door : {"--listen", "--http"}) {
+    std::vector<std::string> args = {KGD_SERVER_BINARY, "--data", certs + "/open_data", "--listen", door == "--listen" ? "0.0.0.0:0" : "127.0.0.1:0"};
+    if (door == "--http") args.insert(args.end(), {"--http", "0.0.0.0:0"});
+    args.insert(args.end(), tls_files.begin(), tls_files.end());
+    const auto [exit_code, output] = RunToExit(args, certs + "/open" + door + ".log", door == "--listen" ? "listening on" : "http on");
+    EXPECT_EQ(exit_code, 1) << door << ": " << output;
+    EXPECT_NE(output.find("kgd-server: " + door +
+                          " 0.0.0.0:0 is reachable from other machines: it needs tokens (--auth-tokens), or --insecure to serve it open"),
+              std::string::npos)
+        << output;
+  }
   SecureService tls({"--tls-cert", certs + "/server.pem", "--tls-key", certs + "/server.key"}, {"--tls-ca", certs + "/ca.pem"}, "tls");
   ASSERT_TRUE(tls.ok()) << tls.Log();
   // The CLI over TLS with a token: a job submitted, run by the TLS worker, watched to its end.
@@ -354,9 +521,20 @@ TEST(SecurityTls, GrpcAndHttpRoundTripsOverTlsWithAThrowawayCa) {
                                          "/ca.pem --token " + kAlice);
   EXPECT_EQ(r.exit_code, 0) << r.output << tls.Log();
   EXPECT_NE(r.output.find("SUCCEEDED"), std::string::npos) << r.output;
-  // Without the CA the client does not trust the server; plaintext does not reach it.
+  // Without the CA the client connects in plaintext, which the server closes: the message says a
+  // server with TLS needs the CA.
   r = cli_test::Kgd("jobs --server " + tls.grpc() + " --token " + kAlice);
   EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("kgd jobs: cannot reach the design server at " + tls.grpc()), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("the server closed the plaintext connection: a server with TLS needs the CA that signed its certificate (--tls-ca"),
+            std::string::npos)
+      << r.output;
+  // A CA that did not sign the server's certificate: the handshake fails, and says so.
+  r = cli_test::Kgd("jobs --server " + tls.grpc() + " --token " + kAlice + " --tls-ca " + certs + "/other.pem");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("the TLS handshake failed: the server must serve TLS with a certificate signed by the CA in " + certs + "/other.pem (--tls-ca)"),
+            std::string::npos)
+      << r.output;
   // HTTPS with the CA.
   httplib::SSLClient https("127.0.0.1", tls.http_port());
   https.set_ca_cert_path((certs + "/ca.pem").c_str());
