@@ -3,8 +3,6 @@
 #include "core/scene/builtin_scenes.h"
 #include "core/beso/quality.h"
 
-#include <unistd.h>
-
 #include <google/protobuf/util/json_util.h>
 
 #include <cmath>
@@ -37,6 +35,7 @@ std::vector<std::pair<std::string, std::string>> FilesNamed(const v1::Scene& s) 
   if (s.garment().has_rest()) add("garment.rest", s.garment().rest());
   if (s.garment().has_initial()) add("garment.initial", s.garment().initial());
   add_value("garment.region", s.garment().region());
+  add_value("garment.seams", s.garment().seams());
   const google::protobuf::Value& design = s.garment().design();
   if (design.has_struct_value())
     if (auto f = design.struct_value().fields().find("reinforced_faces"); f != design.struct_value().fields().end())
@@ -167,30 +166,12 @@ Result<SceneSpec> SceneOfJob(const v1::JobSpec& spec) {
   if (Status st = ValidateJobSpec(spec); !st.ok()) return st;
   if (spec.scene_case() == v1::JobSpec::kBuiltinScene)
     return ResolveScene(spec.builtin_scene(), std::vector<std::string>(spec.body().begin(), spec.body().end()));
-  std::string pattern = (fs::temp_directory_path() / "kgd_scene_XXXXXX").string();
-  if (!mkdtemp(pattern.data())) return Status::Error("cannot create a temporary folder for the scene files");
-  const fs::path dir(pattern);
-  Status written = Status::Ok();
-  auto write = [&](const std::string& name, const std::string& content) {
-    const fs::path p = dir / name;
-    std::error_code ec;
-    fs::create_directories(p.parent_path(), ec);
-    std::ofstream out(p, std::ios::binary);
-    out.write(content.data(), static_cast<std::streamsize>(content.size()));
-    if (!out) written = Status::Error(p.string() + ": cannot write a scene file");
-  };
-  write("scene.json", SceneJson(spec.scene_files().scene()));
-  for (const auto& [name, content] : spec.scene_files().files()) write(name, content);
-  Result<SceneSpec> scene = written.ok() ? LoadScene((dir / "scene.json").string()) : Result<SceneSpec>(written);
-  std::error_code ec;
-  fs::remove_all(dir, ec);
-  if (!scene.ok()) {
-    // The temporary folder means nothing to the user: name the scene by its own key paths.
-    std::string message = scene.message();
-    const std::string prefix = (dir / "").string();
-    for (size_t at; (at = message.find(prefix)) != std::string::npos;) message.replace(at, prefix.size(), "");
-    return Status::Error("spec.scene_files: " + message);
-  }
+  const std::string json = SceneJson(spec.scene_files().scene());
+  SceneBundle bundle;
+  bundle.scene_json = json;
+  for (const auto& [name, content] : spec.scene_files().files()) bundle.files[name] = content;
+  Result<SceneSpec> scene = LoadScene(bundle);
+  if (!scene.ok()) return Status::Error("spec.scene_files: " + scene.message());
   return scene;
 }
 

@@ -29,8 +29,8 @@ Result<BesoSettings> SettingsOfJob(const v1::OptimizerSettings& optimizer, doubl
 // Solver overrides of a spec (Newton iteration limit, gradient tolerance) applied to `solver`.
 void ApplySolverOverrides(const v1::OptimizerSettings& optimizer, SolverSettings* solver);
 
-// The scene of a spec: a built-in scene (with body overrides), or the scene files written to a fresh
-// temporary folder, loaded, and removed again.
+// The scene of a spec: a built-in scene (with body overrides), or the scene files loaded from the
+// spec's bundle in memory (messages name the files as the scene does).
 Result<SceneSpec> SceneOfJob(const v1::JobSpec& spec);
 
 // A scene file's text as the kgd.v1.Scene message (the schema); errors start with `source`.

@@ -49,6 +49,11 @@ TEST(JobSpec, RejectsBadSpecsNamingTheField) {
             std::string::npos) << message(s);
   (*s.mutable_scene_files()->mutable_files())["frames/f1.obj"] = "x";
   EXPECT_TRUE(ValidateJobSpec(s).ok()) << message(s);
+  s.mutable_scene_files()->mutable_scene()->mutable_garment()->mutable_seams()->set_string_value("seams.txt");
+  EXPECT_NE(message(s).find("spec.scene_files.scene.garment.seams: 'seams.txt' is not among the files sent"), std::string::npos)
+      << message(s);
+  (*s.mutable_scene_files()->mutable_files())["seams.txt"] = "0 1\n";
+  EXPECT_TRUE(ValidateJobSpec(s).ok()) << message(s);
   (*s.mutable_scene_files()->mutable_files())["../etc/passwd"] = "x";
   EXPECT_NE(message(s).find("leaves the scene's folder"), std::string::npos);
   EXPECT_TRUE(ValidateJobSpec(Builtin("sleeve_on_limb")).ok());
@@ -115,13 +120,12 @@ TEST(JobSpec, ASceneFileTravelsWithItsMeshes) {
   EXPECT_EQ(scene->design, original->design);
   EXPECT_EQ(JobSceneName(spec), original->name);
 
-  // A bundle missing a mesh names the file, not the temporary folder.
+  // A bundle whose mesh does not parse names the file as the scene names it.
   const std::string first = spec.scene_files().files().begin()->first;
-  spec.mutable_scene_files()->mutable_files()->erase(first);
+  (*spec.mutable_scene_files()->mutable_files())[first] = "ply\nformat ascii 1.0\n";
   Result<SceneSpec> broken = SceneOfJob(spec);
   ASSERT_FALSE(broken.ok());
-  EXPECT_EQ(broken.message().find("kgd_scene_"), std::string::npos) << broken.message();
-  EXPECT_NE(broken.message().find("spec.scene_files"), std::string::npos);
+  EXPECT_EQ(broken.message().rfind("spec.scene_files: " + first + ": ", 0), 0u) << broken.message();
 }
 
 // Scene files are the JSON form of kgd.v1.Scene: exported scenes of every kind (a garment of its own

@@ -56,14 +56,19 @@ int SplitLine(std::string_view line, std::vector<std::string_view>* words) {
   return static_cast<int>(words->size());
 }
 
-Result<TriMesh> ReadObj(const std::string& path) {
-  // The whole file at once, split into lines and words by hand: a scene's bodies are tens of MB of
-  // OBJ, and a stream per line costs several times the parsing itself.
+// A whole file's bytes.
+Result<std::string> ReadBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) return Status::Error(path + ": cannot open file");
-  std::string text(static_cast<size_t>(std::max<std::streamoff>(0, in.tellg())), '\0');
+  std::string bytes(static_cast<size_t>(std::max<std::streamoff>(0, in.tellg())), '\0');
   in.seekg(0);
-  if (!in.read(text.data(), static_cast<std::streamsize>(text.size()))) return Status::Error(path + ": cannot read file");
+  if (!in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()))) return Status::Error(path + ": cannot read file");
+  return bytes;
+}
+
+// The whole file at once, split into lines and words by hand: a scene's bodies are tens of MB of OBJ,
+// and a stream per line costs several times the parsing itself.
+Result<TriMesh> ParseObj(std::string_view text, const std::string& path) {
   std::vector<Eigen::Vector3d> verts;
   std::vector<Eigen::Vector3i> tris;
   size_t line_no = 0;
@@ -182,11 +187,9 @@ bool ReadBinary(std::istream& in, PlyType t, double* out) {
   return true;
 }
 
-Result<TriMesh> ReadPly(const std::string& path) {
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) return Status::Error(path + ": cannot open file");
-  const long file_bytes = static_cast<long>(in.tellg());
-  in.seekg(0);
+Result<TriMesh> ParsePly(std::string_view content, const std::string& path) {
+  std::istringstream in(std::string(content), std::ios::binary);
+  const long file_bytes = static_cast<long>(content.size());
   std::string line;
   std::getline(in, line);
   if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -329,16 +332,29 @@ Result<TriMesh> ReadPly(const std::string& path) {
   return mesh;
 }
 
+// The mesh format named by a file's extension (case-insensitive).
+Result<bool> IsObjName(const std::string& name) {
+  const std::string lower = Lower(name);
+  if (EndsWith(lower, ".obj") || EndsWith(lower, ".ply")) return EndsWith(lower, ".obj");
+  return Status::Error(name + ": unknown mesh format (expected .obj or .ply)");
+}
+
 }  // namespace
+
+Result<TriMesh> ParseMesh(std::string_view content, const std::string& name) {
+  Result<bool> obj = IsObjName(name);
+  if (!obj.ok()) return obj.status();
+  return *obj ? ParseObj(content, name) : ParsePly(content, name);
+}
 
 Result<TriMesh> ReadMesh(const std::string& path) {
   // A folder opens as a stream, and its size reads as anything.
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) return Status::Error(path + ": is a folder, not a mesh file");
-  const std::string lower = Lower(path);
-  if (EndsWith(lower, ".obj")) return ReadObj(path);
-  if (EndsWith(lower, ".ply")) return ReadPly(path);
-  return Status::Error(path + ": unknown mesh format (expected .obj or .ply)");
+  if (Result<bool> obj = IsObjName(path); !obj.ok()) return obj.status();
+  Result<std::string> bytes = ReadBytes(path);
+  if (!bytes.ok()) return bytes.status();
+  return ParseMesh(*bytes, path);
 }
 
 Status WritePly(const std::string& path, const Positions& x, const Faces& faces,
@@ -397,8 +413,15 @@ Status WriteObj(const std::string& path, const Positions& x, const Faces& faces)
 }
 
 Result<std::vector<int>> ReadIndexList(const std::string& path) {
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) return Status::Error(path + ": cannot open file");
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return ParseIndexList(bytes.str(), path);
+}
+
+Result<std::vector<int>> ParseIndexList(std::string_view content, const std::string& path) {
+  std::istringstream in{std::string(content)};
   std::vector<int> out;
   std::string line;
   size_t line_no = 0;

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <ostream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/mesh/trimesh.h"
@@ -18,6 +19,10 @@ namespace kgd {
 
 // Reads an .obj or .ply file (chosen by extension, case-insensitive).
 Result<TriMesh> ReadMesh(const std::string& path);
+
+// The same from a file's bytes in memory (e.g. a file sent with a job); `name`, a file name, chooses
+// the format by its extension and prefixes the messages.
+Result<TriMesh> ParseMesh(std::string_view content, const std::string& name);
 
 // Per-face scalar attributes written after the vertex indices of each face.
 struct FaceProperty {
@@ -40,5 +45,8 @@ Status WriteObj(const std::string& path, const Positions& x, const Faces& faces)
 // Reads a text file of integers, one per line (blank lines and lines starting with '#' ignored).
 // Errors name the file and the line.
 Result<std::vector<int>> ReadIndexList(const std::string& path);
+
+// The same from a file's bytes in memory; `name` prefixes the messages.
+Result<std::vector<int>> ParseIndexList(std::string_view content, const std::string& name);
 
 }  // namespace kgd

@@ -15,6 +15,7 @@
 
 namespace kgd {
 namespace fs = std::filesystem;
+namespace sk = scene_key;
 using nlohmann::json;
 
 namespace {
@@ -27,11 +28,12 @@ std::string JoinKeys(const Range& keys) {
   return list;
 }
 
-// Typed access to a JSON scene with messages that name the file and the key path.
+// Typed access to a JSON scene with messages that name the file and the key path, and to the files it
+// names: in the scene's folder on disk, or in a bundle in memory (then `dir` is empty).
 class Reader {
  public:
-  Reader(std::string file, fs::path dir, std::vector<std::string>* files_read)
-      : file_(std::move(file)), dir_(std::move(dir)), files_read_(files_read) {}
+  Reader(std::string file, fs::path dir, const SceneBundle* bundle, std::vector<std::string>* files_read)
+      : file_(std::move(file)), dir_(std::move(dir)), bundle_(bundle), files_read_(files_read) {}
 
   Status Fail(const std::string& key, const std::string& what) const {
     return Status::Error(file_ + ": " + key + ": " + what);
@@ -72,13 +74,40 @@ class Reader {
     if (files_read_) files_read_->push_back(rel);
     return (dir_ / rel).lexically_normal().string();
   }
+  // A file the scene names, by its resolved name (Resolve): its bytes in the bundle, or an error.
+  Result<std::string_view> Bundled(const std::string& name) const {
+    const auto it = bundle_->files.find(name);
+    if (it == bundle_->files.end()) return Status::Error(name + ": not among the scene's files");
+    return it->second;
+  }
+  Result<TriMesh> MeshFile(const std::string& name) const {
+    if (!bundle_) return ReadMesh(name);
+    Result<std::string_view> bytes = Bundled(name);
+    return bytes.ok() ? ParseMesh(*bytes, name) : Result<TriMesh>(bytes.status());
+  }
+  Result<std::vector<int>> IndexFile(const std::string& name) const {
+    if (!bundle_) return ReadIndexList(name);
+    Result<std::string_view> bytes = Bundled(name);
+    return bytes.ok() ? ParseIndexList(*bytes, name) : Result<std::vector<int>>(bytes.status());
+  }
+  Result<std::string> TextFile(const std::string& name, const char* what) const {
+    if (bundle_) {
+      Result<std::string_view> bytes = Bundled(name);
+      return bytes.ok() ? Result<std::string>(std::string(*bytes)) : Result<std::string>(bytes.status());
+    }
+    std::ifstream in(name, std::ios::binary);
+    if (!in) return Status::Error(name + ": cannot open the " + what);
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
+  }
   Result<TriMesh> Mesh(const json& v, const std::string& key) const {
     if (!v.is_string()) return Fail(key, "must be a mesh file path");
-    return ReadMesh(Resolve(v.get<std::string>()));
+    return MeshFile(Resolve(v.get<std::string>()));
   }
   // An index list given inline or as a file (one integer per line).
   Result<std::vector<int>> Indices(const json& v, const std::string& key) const {
-    if (v.is_string()) return ReadIndexList(Resolve(v.get<std::string>()));
+    if (v.is_string()) return IndexFile(Resolve(v.get<std::string>()));
     if (!v.is_array()) return Fail(key, "must be a file path or an array of indices");
     std::vector<int> out;
     for (size_t i = 0; i < v.size(); ++i) {
@@ -105,15 +134,16 @@ class Reader {
   }
   Status MaterialAt(const json& obj, const std::string& path, Material* m) const {
     if (Status s = CheckKeys(obj, path, "SceneMaterial"); !s.ok()) return s;
-    if (Status s = Number(obj, path, "youngs_modulus_Pa", &m->youngs_modulus_Pa); !s.ok()) return s;
-    if (Status s = Number(obj, path, "poisson_ratio", &m->poisson_ratio); !s.ok()) return s;
-    return Number(obj, path, "thickness_m", &m->thickness_m);
+    if (Status s = Number(obj, path, sk::SceneMaterial::youngs_modulus_Pa, &m->youngs_modulus_Pa); !s.ok()) return s;
+    if (Status s = Number(obj, path, sk::SceneMaterial::poisson_ratio, &m->poisson_ratio); !s.ok()) return s;
+    return Number(obj, path, sk::SceneMaterial::thickness_m, &m->thickness_m);
   }
   const std::string& file() const { return file_; }
 
  private:
   std::string file_;
   fs::path dir_;
+  const SceneBundle* bundle_;
   std::vector<std::string>* files_read_;
 };
 
@@ -122,18 +152,18 @@ class Reader {
 // body and contact, attachments, clamps, the solver.
 
 Status ReadEffects(const Reader& r, const json& doc, SceneSpec* s) {
-  if (doc.contains("effects")) {
-    const json& e = doc["effects"];
+  if (doc.contains(sk::Scene::effects)) {
+    const json& e = doc[sk::Scene::effects];
     KGD_RETURN_IF_ERROR(r.CheckKeys(e, "effects", "SceneEffects"));
-    KGD_RETURN_IF_ERROR(r.Number(e, "effects", "friction", &s->effects.friction));
-    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "fold_barrier", &s->effects.fold_barrier));
-    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "membrane", &s->effects.membrane));
-    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "attachments", &s->effects.attachments));
-    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "clamps", &s->effects.clamps));
-    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", "bending", &s->effects.bending));
+    KGD_RETURN_IF_ERROR(r.Number(e, "effects", sk::SceneEffects::friction, &s->effects.friction));
+    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", sk::SceneEffects::fold_barrier, &s->effects.fold_barrier));
+    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", sk::SceneEffects::membrane, &s->effects.membrane));
+    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", sk::SceneEffects::attachments, &s->effects.attachments));
+    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", sk::SceneEffects::clamps, &s->effects.clamps));
+    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", sk::SceneEffects::bending, &s->effects.bending));
     std::string relax = "exact", contact = "none";
-    KGD_RETURN_IF_ERROR(r.Choice(e, "effects", "relaxation", {"exact", "authors", "none"}, &relax));
-    KGD_RETURN_IF_ERROR(r.Choice(e, "effects", "contact", {"none", "unilateral", "bilateral"}, &contact));
+    KGD_RETURN_IF_ERROR(r.Choice(e, "effects", sk::SceneEffects::relaxation, {"exact", "authors", "none"}, &relax));
+    KGD_RETURN_IF_ERROR(r.Choice(e, "effects", sk::SceneEffects::contact, {"none", "unilateral", "bilateral"}, &contact));
     s->effects.relaxation = relax == "exact" ? Relaxation::kExact : relax == "authors" ? Relaxation::kAuthors : Relaxation::kNone;
     s->effects.contact = contact == "none" ? ContactModel::kNone
                         : contact == "unilateral" ? ContactModel::kUnilateral : ContactModel::kBilateral;
@@ -145,25 +175,25 @@ Status ReadEffects(const Reader& r, const json& doc, SceneSpec* s) {
 // A garment cut from the body's motion: body.rest, body.deformed and body.frames (one topology), the
 // region (body faces), subdivisions and the attachment body faces.
 Status ReadGarmentCutFromBody(const Reader& r, const json& g, const json& b, const json& a, SceneSpec* s) {
-  for (const char* k : {"rest", "initial"})
+  for (const char* k : {sk::SceneGarment::rest, sk::SceneGarment::initial})
     if (g.contains(k))
       return r.Fail(std::string("garment.") + k, "not allowed with garment.region (a garment cut from the body takes its shapes from body.rest and body.deformed)");
-  if (b.contains("mesh")) return r.Fail("body.mesh", "not allowed with garment.region (give body.rest and body.deformed)");
-  if (a.contains("faces")) return r.Fail("attachments.faces", "not allowed with garment.region (give attachments.body_faces, body faces)");
-  for (const char* k : {"rest", "deformed"})
+  if (b.contains(sk::SceneBody::mesh)) return r.Fail("body.mesh", "not allowed with garment.region (give body.rest and body.deformed)");
+  if (a.contains(sk::SceneAttachments::faces)) return r.Fail("attachments.faces", "not allowed with garment.region (give attachments.body_faces, body faces)");
+  for (const char* k : {sk::SceneBody::rest, sk::SceneBody::deformed})
     if (!b.contains(k)) return r.Fail(std::string("body.") + k, "missing (required with garment.region)");
-  Result<TriMesh> rest = r.Mesh(b["rest"], "body.rest");
+  Result<TriMesh> rest = r.Mesh(b[sk::SceneBody::rest], "body.rest");
   if (!rest.ok()) return rest.status();
-  const std::string rest_file = r.Resolve(b["rest"].get<std::string>());
+  const std::string rest_file = r.Resolve(b[sk::SceneBody::rest].get<std::string>());
   BodyMotion motion;
   motion.faces = rest->faces;
   motion.rest = rest->vertices;
   std::vector<std::string> names = {rest_file};
   // Every other pose: same vertex count and the very same faces as the rest mesh. A motion is a dozen
   // meshes of tens of MB of text: they are read in parallel, then checked in order.
-  std::vector<std::pair<std::string, const json*>> poses = {{"body.deformed", &b["deformed"]}};
-  if (b.contains("frames")) {
-    const json& fr = b["frames"];
+  std::vector<std::pair<std::string, const json*>> poses = {{"body.deformed", &b[sk::SceneBody::deformed]}};
+  if (b.contains(sk::SceneBody::frames)) {
+    const json& fr = b[sk::SceneBody::frames];
     if (!fr.is_array() || fr.empty()) return r.Fail("body.frames", "must be a non-empty array of mesh file paths");
     for (size_t i = 0; i < fr.size(); ++i) poses.push_back({"body.frames[" + std::to_string(i) + "]", &fr[i]});
   }
@@ -174,7 +204,7 @@ Status ReadGarmentCutFromBody(const Reader& r, const json& g, const json& b, con
   const int n = static_cast<int>(poses.size());
   std::vector<Result<TriMesh>> read(n, Status::Error(""));
 #pragma omp parallel for schedule(dynamic)
-  for (int i = 0; i < n; ++i) read[i] = ReadMesh(names[i + 1]);
+  for (int i = 0; i < n; ++i) read[i] = r.MeshFile(names[i + 1]);
   for (int i = 0; i < n; ++i) {
     if (!read[i].ok()) return read[i].status();
     const TriMesh& pose = *read[i];
@@ -194,42 +224,42 @@ Status ReadGarmentCutFromBody(const Reader& r, const json& g, const json& b, con
   }
   KGD_RETURN_IF_ERROR(ValidateBodyMotion(motion, names));
   s->motion = std::move(motion);
-  Result<std::vector<int>> region = r.Indices(g["region"], "garment.region");
+  Result<std::vector<int>> region = r.Indices(g[sk::SceneGarment::region], "garment.region");
   if (!region.ok()) return region.status();
   s->garment_region = std::move(region).value();
   double subdivisions = 0;
-  KGD_RETURN_IF_ERROR(r.Number(g, "garment", "subdivisions", &subdivisions));
+  KGD_RETURN_IF_ERROR(r.Number(g, "garment", sk::SceneGarment::subdivisions, &subdivisions));
   if (subdivisions != std::floor(subdivisions) || subdivisions < 0 || subdivisions > 4)
     return r.Fail("garment.subdivisions", "must be an integer in [0, 4]");
   s->subdivisions = static_cast<int>(subdivisions);
   std::string attach_name = r.file() + ": attachments.body_faces";
-  if (a.contains("body_faces")) {
-    Result<std::vector<int>> faces = r.Indices(a["body_faces"], "attachments.body_faces");
+  if (a.contains(sk::SceneAttachments::body_faces)) {
+    Result<std::vector<int>> faces = r.Indices(a[sk::SceneAttachments::body_faces], "attachments.body_faces");
     if (!faces.ok()) return faces.status();
     s->attachment_body_faces = std::move(faces).value();
-    if (a["body_faces"].is_string()) attach_name = r.Resolve(a["body_faces"].get<std::string>());
+    if (a[sk::SceneAttachments::body_faces].is_string()) attach_name = r.Resolve(a[sk::SceneAttachments::body_faces].get<std::string>());
   }
-  const std::string region_name = g["region"].is_string() ? r.Resolve(g["region"].get<std::string>()) : r.file() + ": garment.region";
+  const std::string region_name = g[sk::SceneGarment::region].is_string() ? r.Resolve(g[sk::SceneGarment::region].get<std::string>()) : r.file() + ": garment.region";
   KGD_RETURN_IF_ERROR(CutGarmentFromMotion(s, region_name, attach_name));
   return Status::Ok();
 }
 
 // A garment mesh of its own, with optional start positions of the same topology.
 Status ReadGarmentOfItsOwn(const Reader& r, const json& g, const json& b, const json& a, SceneSpec* s) {
-  if (!g.contains("rest")) return r.Fail("garment.rest", "missing (or give garment.region to cut the garment from the body)");
-  if (g.contains("subdivisions")) return r.Fail("garment.subdivisions", "only allowed with garment.region");
-  for (const char* k : {"rest", "deformed", "frames"})
+  if (!g.contains(sk::SceneGarment::rest)) return r.Fail("garment.rest", "missing (or give garment.region to cut the garment from the body)");
+  if (g.contains(sk::SceneGarment::subdivisions)) return r.Fail("garment.subdivisions", "only allowed with garment.region");
+  for (const char* k : {sk::SceneBody::rest, sk::SceneBody::deformed, sk::SceneBody::frames})
     if (b.contains(k)) return r.Fail(std::string("body.") + k, "only allowed with garment.region (for a garment of its own give body.mesh)");
-  if (a.contains("body_faces")) return r.Fail("attachments.body_faces", "only allowed with garment.region (give attachments.faces)");
-  Result<TriMesh> rest = r.Mesh(g["rest"], "garment.rest");
+  if (a.contains(sk::SceneAttachments::body_faces)) return r.Fail("attachments.body_faces", "only allowed with garment.region (give attachments.faces)");
+  Result<TriMesh> rest = r.Mesh(g[sk::SceneGarment::rest], "garment.rest");
   if (!rest.ok()) return rest.status();
   s->garment = std::move(rest).value();
-  KGD_RETURN_IF_ERROR(ValidateMesh(s->garment.vertices, s->garment.faces, r.Resolve(g["rest"].get<std::string>())));
+  KGD_RETURN_IF_ERROR(ValidateMesh(s->garment.vertices, s->garment.faces, r.Resolve(g[sk::SceneGarment::rest].get<std::string>())));
   s->initial = s->garment.vertices;
-  if (g.contains("initial")) {
-    Result<TriMesh> init = r.Mesh(g["initial"], "garment.initial");
+  if (g.contains(sk::SceneGarment::initial)) {
+    Result<TriMesh> init = r.Mesh(g[sk::SceneGarment::initial], "garment.initial");
     if (!init.ok()) return init.status();
-    const std::string init_file = r.Resolve(g["initial"].get<std::string>());
+    const std::string init_file = r.Resolve(g[sk::SceneGarment::initial].get<std::string>());
     if (init->vertices.rows() != s->garment.vertices.rows())
       return Status::Error(init_file + ": has " + std::to_string(init->vertices.rows()) +
                            " vertices but the rest mesh has " + std::to_string(s->garment.vertices.rows()));
@@ -243,16 +273,16 @@ Status ReadGarmentOfItsOwn(const Reader& r, const json& g, const json& b, const 
 Status ReadDesign(const Reader& r, const json& g, SceneSpec* s) {
   const int nf = static_cast<int>(s->garment.faces.rows());
   s->design.assign(nf, kCloth);
-  if (g.contains("design")) {
-    const json& d = g["design"];
+  if (g.contains(sk::SceneGarment::design)) {
+    const json& d = g[sk::SceneGarment::design];
     if (d.is_string()) {
       const std::string v = d.get<std::string>();
       if (v == "all_reinforced") s->design.assign(nf, kReinforced);
       else if (v != "all_cloth") return r.Fail("garment.design", "'" + v + "' is not all_cloth, all_reinforced or an object");
     } else {
       KGD_RETURN_IF_ERROR(r.CheckKeys(d, "garment.design", "SceneDesign"));
-      if (d.contains("reinforced_faces")) {
-        Result<std::vector<int>> faces = r.Indices(d["reinforced_faces"], "garment.design.reinforced_faces");
+      if (d.contains(sk::SceneDesign::reinforced_faces)) {
+        Result<std::vector<int>> faces = r.Indices(d[sk::SceneDesign::reinforced_faces], "garment.design.reinforced_faces");
         if (!faces.ok()) return faces.status();
         KGD_RETURN_IF_ERROR(ValidateFaceList(*faces, nf, r.file() + ": garment.design.reinforced_faces"));
         for (int f : *faces) s->design[f] = kReinforced;
@@ -263,9 +293,8 @@ Status ReadDesign(const Reader& r, const json& g, SceneSpec* s) {
 }
 
 // One seam per line: garment vertex indices separated by spaces; blank lines and # comments skipped.
-Result<std::vector<std::vector<int>>> ReadSeamFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return Status::Error(path + ": cannot open the seam file");
+Result<std::vector<std::vector<int>>> ParseSeamFile(const std::string& text, const std::string& path) {
+  std::istringstream in(text);
   std::vector<std::vector<int>> seams;
   int line_number = 0;
   for (std::string line; std::getline(in, line);) {
@@ -288,13 +317,15 @@ Result<std::vector<std::vector<int>>> ReadSeamFile(const std::string& path) {
 // garment.seams: paths along the garment's edges (checked here, so that a bad seam is named with its
 // scene file rather than at export).
 Status ReadSeams(const Reader& r, const json& g, SceneSpec* s) {
-  if (!g.contains("seams")) return Status::Ok();
-  const json& v = g["seams"];
+  if (!g.contains(sk::SceneGarment::seams)) return Status::Ok();
+  const json& v = g[sk::SceneGarment::seams];
   std::vector<std::vector<int>> seams;
   std::string where = r.file() + ": garment.seams";
   if (v.is_string()) {
     where = r.Resolve(v.get<std::string>());
-    Result<std::vector<std::vector<int>>> read = ReadSeamFile(where);
+    Result<std::string> text = r.TextFile(where, "seam file");
+    if (!text.ok()) return text.status();
+    Result<std::vector<std::vector<int>>> read = ParseSeamFile(*text, where);
     if (!read.ok()) return read.status();
     seams = std::move(read).value();
   } else if (v.is_array()) {
@@ -328,14 +359,14 @@ Status ReadSeams(const Reader& r, const json& g, SceneSpec* s) {
 
 Status ReadMaterials(const Reader& r, const json& doc, SceneSpec* s) {
   // Materials.
-  if (doc.contains("materials")) {
-    const json& m = doc["materials"];
+  if (doc.contains(sk::Scene::materials)) {
+    const json& m = doc[sk::Scene::materials];
     KGD_RETURN_IF_ERROR(r.CheckKeys(m, "materials", "SceneMaterials"));
     std::string lame = "solid3d";
-    KGD_RETURN_IF_ERROR(r.Choice(m, "materials", "lame", {"solid3d", "plane_stress"}, &lame));
+    KGD_RETURN_IF_ERROR(r.Choice(m, "materials", sk::SceneMaterials::lame, {"solid3d", "plane_stress"}, &lame));
     s->lame = lame == "solid3d" ? LameConversion::kSolid3D : LameConversion::kPlaneStress;
-    if (m.contains("cloth")) KGD_RETURN_IF_ERROR(r.MaterialAt(m["cloth"], "materials.cloth", &s->cloth));
-    if (m.contains("reinforced")) KGD_RETURN_IF_ERROR(r.MaterialAt(m["reinforced"], "materials.reinforced", &s->reinforced));
+    if (m.contains(sk::SceneMaterials::cloth)) KGD_RETURN_IF_ERROR(r.MaterialAt(m[sk::SceneMaterials::cloth], "materials.cloth", &s->cloth));
+    if (m.contains(sk::SceneMaterials::reinforced)) KGD_RETURN_IF_ERROR(r.MaterialAt(m[sk::SceneMaterials::reinforced], "materials.reinforced", &s->reinforced));
   }
 
   return Status::Ok();
@@ -343,16 +374,16 @@ Status ReadMaterials(const Reader& r, const json& doc, SceneSpec* s) {
 
 // Body and contact: the body mesh is read only when the effects ask for contact.
 Status ReadContact(const Reader& r, const json& doc, const json& b, SceneSpec* s) {
-  if (doc.contains("contact")) {
-    KGD_RETURN_IF_ERROR(r.CheckKeys(doc["contact"], "contact", "SceneContact"));
-    KGD_RETURN_IF_ERROR(r.Number(doc["contact"], "contact", "stiffness_N_per_m", &s->contact_stiffness_N_per_m));
+  if (doc.contains(sk::Scene::contact)) {
+    KGD_RETURN_IF_ERROR(r.CheckKeys(doc[sk::Scene::contact], "contact", "SceneContact"));
+    KGD_RETURN_IF_ERROR(r.Number(doc[sk::Scene::contact], "contact", sk::SceneContact::stiffness_N_per_m, &s->contact_stiffness_N_per_m));
   }
   if (!s->motion && s->effects.contact != ContactModel::kNone) {
-    if (!b.contains("mesh")) return r.Fail("body.mesh", "missing, but effects.contact is '" +
+    if (!b.contains(sk::SceneBody::mesh)) return r.Fail("body.mesh", "missing, but effects.contact is '" +
                                                             std::string(s->effects.contact == ContactModel::kUnilateral ? "unilateral" : "bilateral") + "'");
-    Result<TriMesh> body = r.Mesh(b["mesh"], "body.mesh");
+    Result<TriMesh> body = r.Mesh(b[sk::SceneBody::mesh], "body.mesh");
     if (!body.ok()) return body.status();
-    KGD_RETURN_IF_ERROR(ValidateMesh(body->vertices, body->faces, r.Resolve(b["mesh"].get<std::string>())));
+    KGD_RETURN_IF_ERROR(ValidateMesh(body->vertices, body->faces, r.Resolve(b[sk::SceneBody::mesh].get<std::string>())));
     s->body = std::move(body).value();
   }
 
@@ -362,8 +393,8 @@ Status ReadContact(const Reader& r, const json& doc, const json& b, SceneSpec* s
 // Attachments of a garment of its own (a cut garment's come from attachments.body_faces).
 Status ReadAttachmentFaces(const Reader& r, const json& a, SceneSpec* s) {
   const int nf = static_cast<int>(s->garment.faces.rows());
-  if (a.contains("faces")) {
-    Result<std::vector<int>> faces = r.Indices(a["faces"], "attachments.faces");
+  if (a.contains(sk::SceneAttachments::faces)) {
+    Result<std::vector<int>> faces = r.Indices(a[sk::SceneAttachments::faces], "attachments.faces");
     if (!faces.ok()) return faces.status();
     KGD_RETURN_IF_ERROR(ValidateFaceList(*faces, nf, r.file() + ": attachments.faces"));
     s->attachment_faces = std::move(faces).value();
@@ -376,22 +407,22 @@ Status ReadAttachmentFaces(const Reader& r, const json& a, SceneSpec* s) {
 
 Status ReadClamps(const Reader& r, const json& doc, SceneSpec* s) {
   // Clamps.
-  if (doc.contains("clamps")) {
-    const json& cs = doc["clamps"];
+  if (doc.contains(sk::Scene::clamps)) {
+    const json& cs = doc[sk::Scene::clamps];
     if (!cs.is_array()) return r.Fail("clamps", "must be an array");
     for (size_t i = 0; i < cs.size(); ++i) {
       const std::string p = "clamps[" + std::to_string(i) + "]";
       const json& c = cs[i];
       KGD_RETURN_IF_ERROR(r.CheckKeys(c, p, "SceneClamp"));
       Clamp clamp;
-      clamp.name = c.contains("name") && c["name"].is_string() ? c["name"].get<std::string>() : "clamp" + std::to_string(i);
-      if (!c.contains("vertices")) return r.Fail(p + ".vertices", "missing");
-      const json& v = c["vertices"];
+      clamp.name = c.contains(sk::SceneClamp::name) && c[sk::SceneClamp::name].is_string() ? c[sk::SceneClamp::name].get<std::string>() : "clamp" + std::to_string(i);
+      if (!c.contains(sk::SceneClamp::vertices)) return r.Fail(p + ".vertices", "missing");
+      const json& v = c[sk::SceneClamp::vertices];
       if (v.is_object()) {
         KGD_RETURN_IF_ERROR(r.CheckKeys(v, p + ".vertices", "SceneClampBox"));
         Eigen::Vector3d lo = Eigen::Vector3d::Constant(-1e300), hi = Eigen::Vector3d::Constant(1e300);
-        KGD_RETURN_IF_ERROR(r.Vec3(v, p + ".vertices", "box_min", &lo));
-        KGD_RETURN_IF_ERROR(r.Vec3(v, p + ".vertices", "box_max", &hi));
+        KGD_RETURN_IF_ERROR(r.Vec3(v, p + ".vertices", sk::SceneClampBox::box_min, &lo));
+        KGD_RETURN_IF_ERROR(r.Vec3(v, p + ".vertices", sk::SceneClampBox::box_max, &hi));
         for (Eigen::Index k = 0; k < s->garment.vertices.rows(); ++k) {
           const Eigen::Vector3d x = s->garment.vertices.row(k);
           if ((x.array() >= lo.array()).all() && (x.array() <= hi.array()).all()) clamp.vertices.push_back(k);
@@ -402,16 +433,16 @@ Status ReadClamps(const Reader& r, const json& doc, SceneSpec* s) {
         if (!ids.ok()) return ids.status();
         clamp.vertices = std::move(ids).value();
       }
-      if (c.contains("axes")) {
-        if (!c["axes"].is_string()) return r.Fail(p + ".axes", "must be a string of x, y, z (e.g. \"xyz\" or \"z\")");
-        const std::string axes = c["axes"].get<std::string>();
+      if (c.contains(sk::SceneClamp::axes)) {
+        if (!c[sk::SceneClamp::axes].is_string()) return r.Fail(p + ".axes", "must be a string of x, y, z (e.g. \"xyz\" or \"z\")");
+        const std::string axes = c[sk::SceneClamp::axes].get<std::string>();
         clamp.axes = {false, false, false};
         for (char ch : axes) {
           if (ch < 'x' || ch > 'z') return r.Fail(p + ".axes", "'" + axes + "' may contain only x, y and z");
           clamp.axes[ch - 'x'] = true;
         }
       }
-      KGD_RETURN_IF_ERROR(r.Vec3(c, p, "displacement_m", &clamp.displacement_m));
+      KGD_RETURN_IF_ERROR(r.Vec3(c, p, sk::SceneClamp::displacement_m, &clamp.displacement_m));
       s->clamps.push_back(std::move(clamp));
     }
   }
@@ -422,78 +453,70 @@ Status ReadClamps(const Reader& r, const json& doc, SceneSpec* s) {
 
 Status ReadSolver(const Reader& r, const json& doc, SceneSpec* s) {
   // Solver.
-  if (doc.contains("solver")) {
-    const json& so = doc["solver"];
+  if (doc.contains(sk::Scene::solver)) {
+    const json& so = doc[sk::Scene::solver];
     KGD_RETURN_IF_ERROR(r.CheckKeys(so, "solver", "SceneSolver"));
     std::string method = "newton";
-    KGD_RETURN_IF_ERROR(r.Choice(so, "solver", "method", {"newton", "lbfgs"}, &method));
+    KGD_RETURN_IF_ERROR(r.Choice(so, "solver", sk::SceneSolver::method, {"newton", "lbfgs"}, &method));
     s->solver.method = method == "newton" ? SolverMethod::kNewton : SolverMethod::kLbfgs;
-    KGD_RETURN_IF_ERROR(r.Number(so, "solver", "grad_tol", &s->solver.grad_tol));
+    KGD_RETURN_IF_ERROR(r.Number(so, "solver", sk::SceneSolver::grad_tol, &s->solver.grad_tol));
     if (!(s->solver.grad_tol > 0)) return r.Fail("solver.grad_tol", "must be > 0");
     double it = s->solver.max_iterations, hist = s->solver.lbfgs_history;
-    KGD_RETURN_IF_ERROR(r.Number(so, "solver", "max_iterations", &it));
-    KGD_RETURN_IF_ERROR(r.Number(so, "solver", "lbfgs_history", &hist));
+    KGD_RETURN_IF_ERROR(r.Number(so, "solver", sk::SceneSolver::max_iterations, &it));
+    KGD_RETURN_IF_ERROR(r.Number(so, "solver", sk::SceneSolver::lbfgs_history, &hist));
     if (it < 0 || it > 1e8) return r.Fail("solver.max_iterations", "must be in [0, 1e8]");
     if (hist < 1 || hist > 1000) return r.Fail("solver.lbfgs_history", "must be in [1, 1000]");
     s->solver.max_iterations = static_cast<int>(it);
     s->solver.lbfgs_history = static_cast<int>(hist);
-    KGD_RETURN_IF_ERROR(r.Bool(so, "solver", "reuse_factorization", &s->solver.reuse_factorization));
-    KGD_RETURN_IF_ERROR(r.Bool(so, "solver", "project_contact_crossings", &s->solver.project_contact_crossings));
-    KGD_RETURN_IF_ERROR(r.Bool(so, "solver", "local_steps", &s->solver.local_steps));
+    KGD_RETURN_IF_ERROR(r.Bool(so, "solver", sk::SceneSolver::reuse_factorization, &s->solver.reuse_factorization));
+    KGD_RETURN_IF_ERROR(r.Bool(so, "solver", sk::SceneSolver::project_contact_crossings, &s->solver.project_contact_crossings));
+    KGD_RETURN_IF_ERROR(r.Bool(so, "solver", sk::SceneSolver::local_steps, &s->solver.local_steps));
   }
 
   return Status::Ok();
 }
 
-}  // namespace
-
-Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* files_read) {
-  // A stream on a folder opens and then throws on the first read.
-  std::error_code ec;
-  if (fs::is_directory(path, ec))
-    return Status::Error(path + ": is a folder, not a scene file (for a scene exported there, pass " +
-                         (fs::path(path) / "scene.json").string() +
-                         "; a built-in scene's name must not also name a file or folder in the working directory)");
-  std::ifstream in(path);
-  if (!in) return Status::Error(path + ": cannot open scene file");
+// A scene file's text `text`, named `path`, whose files are in `dir` on disk or in `bundle`.
+Result<SceneSpec> LoadSceneText(const std::string& text, const std::string& path, const fs::path& dir, const SceneBundle* bundle,
+                                std::vector<std::string>* files_read) {
   json doc;
   try {
-    doc = json::parse(in);
+    doc = json::parse(text);
   } catch (const json::parse_error& e) {
     return Status::Error(path + ": not valid JSON at byte " + std::to_string(e.byte) + ": " + e.what());
   } catch (const json::exception& e) {  // out_of_range: a number beyond double, e.g. 1e400
     return Status::Error(path + ": not valid JSON: " + e.what());
   }
-  const Reader r(path, fs::path(path).parent_path(), files_read);
+  const Reader r(path, dir, bundle, files_read);
   SceneSpec s;
   KGD_RETURN_IF_ERROR(r.CheckKeys(doc, "", "Scene"));
-  if (doc.contains("name")) {
-    if (!doc["name"].is_string()) return r.Fail("name", "must be a string");
-    s.name = doc["name"].get<std::string>();
+  if (doc.contains(sk::Scene::name)) {
+    if (!doc[sk::Scene::name].is_string()) return r.Fail("name", "must be a string");
+    s.name = doc[sk::Scene::name].get<std::string>();
   } else {
     s.name = fs::path(path).stem().string();
   }
   KGD_RETURN_IF_ERROR(ReadEffects(r, doc, &s));
 
-  if (!doc.contains("garment"))
+  if (!doc.contains(sk::Scene::garment))
     return r.Fail("garment", "missing (give garment.rest, or garment.region with body.rest and body.deformed)");
-  const json& g = doc["garment"];
+  const json& g = doc[sk::Scene::garment];
   KGD_RETURN_IF_ERROR(r.CheckKeys(g, "garment", "SceneGarment"));
   const json no_object = json::object();
-  const json& b = doc.contains("body") ? doc["body"] : no_object;
+  const json& b = doc.contains(sk::Scene::body) ? doc[sk::Scene::body] : no_object;
   KGD_RETURN_IF_ERROR(r.CheckKeys(b, "body", "SceneBody"));
-  KGD_RETURN_IF_ERROR(r.Number(b, "body", "support_scale", &s.body_support_scale));
-  const json& a = doc.contains("attachments") ? doc["attachments"] : no_object;
+  KGD_RETURN_IF_ERROR(r.Number(b, "body", sk::SceneBody::support_scale, &s.body_support_scale));
+  const json& a = doc.contains(sk::Scene::attachments) ? doc[sk::Scene::attachments] : no_object;
   KGD_RETURN_IF_ERROR(r.CheckKeys(a, "attachments", "SceneAttachments"));
-  KGD_RETURN_IF_ERROR(r.Number(a, "attachments", "stiffness_N_per_m", &s.attachment_stiffness_N_per_m));
-  KGD_RETURN_IF_ERROR(g.contains("region") ? ReadGarmentCutFromBody(r, g, b, a, &s) : ReadGarmentOfItsOwn(r, g, b, a, &s));
+  KGD_RETURN_IF_ERROR(r.Number(a, "attachments", sk::SceneAttachments::stiffness_N_per_m, &s.attachment_stiffness_N_per_m));
+  KGD_RETURN_IF_ERROR(g.contains(sk::SceneGarment::region) ? ReadGarmentCutFromBody(r, g, b, a, &s) : ReadGarmentOfItsOwn(r, g, b, a, &s));
   KGD_RETURN_IF_ERROR(ReadDesign(r, g, &s));
   KGD_RETURN_IF_ERROR(ReadSeams(r, g, &s));
-  if (doc.contains("description")) {
-    if (!doc["description"].is_string()) return r.Fail("description", "must be a string");
-    s.description = doc["description"].get<std::string>();
+  if (doc.contains(sk::Scene::description)) {
+    if (!doc[sk::Scene::description].is_string()) return r.Fail("description", "must be a string");
+    s.description = doc[sk::Scene::description].get<std::string>();
   }
-  KGD_RETURN_IF_ERROR(r.Number(doc, "", "budget", &s.budget));
+  KGD_RETURN_IF_ERROR(r.Number(doc, "", sk::Scene::budget, &s.budget));
   if (!(s.budget > 0 && s.budget <= 1)) return r.Fail("budget", "must be in (0, 1] (a fraction of the garment area)");
   KGD_RETURN_IF_ERROR(ReadMaterials(r, doc, &s));
   KGD_RETURN_IF_ERROR(ReadContact(r, doc, b, &s));
@@ -505,6 +528,28 @@ Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* f
   Result<GarmentModel> model = BuildGarmentModel(s);
   if (!model.ok()) return Status::Error(path + ": " + model.message());
   return s;
+}
+
+}  // namespace
+
+Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* files_read) {
+  // A stream on a folder opens and then throws on the first read.
+  std::error_code ec;
+  if (fs::is_directory(path, ec))
+    return Status::Error(path + ": is a folder, not a scene file (for a scene exported there, pass " +
+                         (fs::path(path) / "scene.json").string() +
+                         "; a built-in scene's name must not also name a file or folder in the working directory)");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Status::Error(path + ": cannot open scene file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return LoadSceneText(text.str(), path, fs::path(path).parent_path(), nullptr, files_read);
+}
+
+Result<SceneSpec> LoadScene(const SceneBundle& bundle, std::vector<std::string>* files_read) {
+  SceneBundle normalized{bundle.name, bundle.scene_json, {}};
+  for (const auto& [name, bytes] : bundle.files) normalized.files[fs::path(name).lexically_normal().string()] = bytes;
+  return LoadSceneText(std::string(bundle.scene_json), bundle.name, fs::path(), &normalized, files_read);
 }
 
 namespace {
@@ -521,7 +566,7 @@ const char* ContactName(ContactModel c) {
   return c == ContactModel::kNone ? "none" : c == ContactModel::kUnilateral ? "unilateral" : "bilateral";
 }
 nlohmann::ordered_json MaterialJson(const Material& m) {
-  return {{"youngs_modulus_Pa", m.youngs_modulus_Pa}, {"poisson_ratio", m.poisson_ratio}, {"thickness_m", m.thickness_m}};
+  return {{sk::SceneMaterial::youngs_modulus_Pa, m.youngs_modulus_Pa}, {sk::SceneMaterial::poisson_ratio, m.poisson_ratio}, {sk::SceneMaterial::thickness_m, m.thickness_m}};
 }
 }  // namespace
 
@@ -531,14 +576,14 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
   fs::create_directories(dir, ec);
   if (ec) return Status::Error(dir_path + ": cannot create directory: " + ec.message());
   nlohmann::ordered_json doc;
-  doc["name"] = s.name;
-  if (!s.description.empty()) doc["description"] = s.description;
-  if (s.budget != 1.0) doc["budget"] = s.budget;
+  doc[sk::Scene::name] = s.name;
+  if (!s.description.empty()) doc[sk::Scene::description] = s.description;
+  if (s.budget != 1.0) doc[sk::Scene::budget] = s.budget;
   if (s.motion) {
     KGD_RETURN_IF_ERROR(WriteObj((dir / "body_rest.obj").string(), s.motion->rest, s.motion->faces));
     KGD_RETURN_IF_ERROR(WriteObj((dir / "body_deformed.obj").string(), s.motion->deformed, s.motion->faces));
-    doc["body"]["rest"] = "body_rest.obj";
-    doc["body"]["deformed"] = "body_deformed.obj";
+    doc[sk::Scene::body][sk::SceneBody::rest] = "body_rest.obj";
+    doc[sk::Scene::body][sk::SceneBody::deformed] = "body_deformed.obj";
     if (!s.motion->frames.empty()) {
       fs::create_directories(dir / "frames", ec);
       if (ec) return Status::Error((dir / "frames").string() + ": cannot create directory: " + ec.message());
@@ -549,52 +594,52 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
         KGD_RETURN_IF_ERROR(WriteObj((dir / file).string(), s.motion->frames[i], s.motion->faces));
         frames.push_back(file);
       }
-      doc["body"]["frames"] = frames;
+      doc[sk::Scene::body][sk::SceneBody::frames] = frames;
     }
-    doc["body"]["support_scale"] = s.body_support_scale;
+    doc[sk::Scene::body][sk::SceneBody::support_scale] = s.body_support_scale;
     KGD_RETURN_IF_ERROR(WriteIndexList((dir / "garment_region.txt").string(), s.garment_region));
-    doc["garment"]["region"] = "garment_region.txt";
-    doc["garment"]["subdivisions"] = s.subdivisions;
+    doc[sk::Scene::garment][sk::SceneGarment::region] = "garment_region.txt";
+    doc[sk::Scene::garment][sk::SceneGarment::subdivisions] = s.subdivisions;
   } else {
     KGD_RETURN_IF_ERROR(WriteObj((dir / "garment_rest.obj").string(), s.garment.vertices, s.garment.faces));
-    doc["garment"]["rest"] = "garment_rest.obj";
+    doc[sk::Scene::garment][sk::SceneGarment::rest] = "garment_rest.obj";
     if (s.initial != s.garment.vertices) {
       KGD_RETURN_IF_ERROR(WriteObj((dir / "garment_initial.obj").string(), s.initial, s.garment.faces));
-      doc["garment"]["initial"] = "garment_initial.obj";
+      doc[sk::Scene::garment][sk::SceneGarment::initial] = "garment_initial.obj";
     }
   }
   std::vector<int> reinforced;
   for (size_t f = 0; f < s.design.size(); ++f)
     if (s.design[f] == kReinforced) reinforced.push_back(f);
-  if (reinforced.empty()) doc["garment"]["design"] = "all_cloth";
-  else if (reinforced.size() == s.design.size()) doc["garment"]["design"] = "all_reinforced";
+  if (reinforced.empty()) doc[sk::Scene::garment][sk::SceneGarment::design] = "all_cloth";
+  else if (reinforced.size() == s.design.size()) doc[sk::Scene::garment][sk::SceneGarment::design] = "all_reinforced";
   else {
     KGD_RETURN_IF_ERROR(WriteIndexList((dir / "reinforced_faces.txt").string(), reinforced));
-    doc["garment"]["design"] = {{"reinforced_faces", "reinforced_faces.txt"}};
+    doc[sk::Scene::garment][sk::SceneGarment::design] = {{sk::SceneDesign::reinforced_faces, "reinforced_faces.txt"}};
   }
-  if (!s.seams.empty()) doc["garment"]["seams"] = s.seams;
-  doc["materials"] = {{"lame", s.lame == LameConversion::kSolid3D ? "solid3d" : "plane_stress"},
-                      {"cloth", MaterialJson(s.cloth)},
-                      {"reinforced", MaterialJson(s.reinforced)}};
-  doc["effects"] = {{"membrane", s.effects.membrane}, {"relaxation", RelaxationName(s.effects.relaxation)},
-                    {"fold_barrier", s.effects.fold_barrier},
-                    {"contact", ContactName(s.effects.contact)}, {"friction", s.effects.friction},
-                    {"attachments", s.effects.attachments},
-                    {"clamps", s.effects.clamps},
-                    {"bending", s.effects.bending}};
+  if (!s.seams.empty()) doc[sk::Scene::garment][sk::SceneGarment::seams] = s.seams;
+  doc[sk::Scene::materials] = {{sk::SceneMaterials::lame, s.lame == LameConversion::kSolid3D ? "solid3d" : "plane_stress"},
+                      {sk::SceneMaterials::cloth, MaterialJson(s.cloth)},
+                      {sk::SceneMaterials::reinforced, MaterialJson(s.reinforced)}};
+  doc[sk::Scene::effects] = {{sk::SceneEffects::membrane, s.effects.membrane}, {sk::SceneEffects::relaxation, RelaxationName(s.effects.relaxation)},
+                    {sk::SceneEffects::fold_barrier, s.effects.fold_barrier},
+                    {sk::SceneEffects::contact, ContactName(s.effects.contact)}, {sk::SceneEffects::friction, s.effects.friction},
+                    {sk::SceneEffects::attachments, s.effects.attachments},
+                    {sk::SceneEffects::clamps, s.effects.clamps},
+                    {sk::SceneEffects::bending, s.effects.bending}};
   if (s.body && !s.motion) {
     KGD_RETURN_IF_ERROR(WriteObj((dir / "body.obj").string(), s.body->vertices, s.body->faces));
-    doc["body"] = {{"mesh", "body.obj"}, {"support_scale", s.body_support_scale}};
+    doc[sk::Scene::body] = {{sk::SceneBody::mesh, "body.obj"}, {sk::SceneBody::support_scale, s.body_support_scale}};
   }
-  if (s.body) doc["contact"] = {{"stiffness_N_per_m", s.contact_stiffness_N_per_m}};
+  if (s.body) doc[sk::Scene::contact] = {{sk::SceneContact::stiffness_N_per_m, s.contact_stiffness_N_per_m}};
   if (s.motion) {
     if (!s.attachment_body_faces.empty()) {
       KGD_RETURN_IF_ERROR(WriteIndexList((dir / "attachment_body_faces.txt").string(), s.attachment_body_faces));
-      doc["attachments"] = {{"body_faces", "attachment_body_faces.txt"}, {"stiffness_N_per_m", s.attachment_stiffness_N_per_m}};
+      doc[sk::Scene::attachments] = {{sk::SceneAttachments::body_faces, "attachment_body_faces.txt"}, {sk::SceneAttachments::stiffness_N_per_m, s.attachment_stiffness_N_per_m}};
     }
   } else if (!s.attachment_faces.empty()) {
     KGD_RETURN_IF_ERROR(WriteIndexList((dir / "attachment_faces.txt").string(), s.attachment_faces));
-    doc["attachments"] = {{"faces", "attachment_faces.txt"}, {"stiffness_N_per_m", s.attachment_stiffness_N_per_m}};
+    doc[sk::Scene::attachments] = {{sk::SceneAttachments::faces, "attachment_faces.txt"}, {sk::SceneAttachments::stiffness_N_per_m, s.attachment_stiffness_N_per_m}};
   }
   if (!s.clamps.empty()) {
     nlohmann::ordered_json cs = nlohmann::ordered_json::array();
@@ -605,18 +650,18 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
       std::string axes;
       for (int k = 0; k < 3; ++k)
         if (c.axes[k]) axes += static_cast<char>('x' + k);
-      cs.push_back({{"name", c.name}, {"vertices", file}, {"axes", axes},
-                    {"displacement_m", {c.displacement_m[0], c.displacement_m[1], c.displacement_m[2]}}});
+      cs.push_back({{sk::SceneClamp::name, c.name}, {sk::SceneClamp::vertices, file}, {sk::SceneClamp::axes, axes},
+                    {sk::SceneClamp::displacement_m, {c.displacement_m[0], c.displacement_m[1], c.displacement_m[2]}}});
     }
-    doc["clamps"] = cs;
+    doc[sk::Scene::clamps] = cs;
   }
-  doc["solver"] = {{"method", s.solver.method == SolverMethod::kNewton ? "newton" : "lbfgs"},
-                   {"grad_tol", s.solver.grad_tol},
-                   {"max_iterations", s.solver.max_iterations},
-                   {"reuse_factorization", s.solver.reuse_factorization},
-                   {"lbfgs_history", s.solver.lbfgs_history},
-                   {"project_contact_crossings", s.solver.project_contact_crossings},
-                   {"local_steps", s.solver.local_steps}};
+  doc[sk::Scene::solver] = {{sk::SceneSolver::method, s.solver.method == SolverMethod::kNewton ? "newton" : "lbfgs"},
+                   {sk::SceneSolver::grad_tol, s.solver.grad_tol},
+                   {sk::SceneSolver::max_iterations, s.solver.max_iterations},
+                   {sk::SceneSolver::reuse_factorization, s.solver.reuse_factorization},
+                   {sk::SceneSolver::lbfgs_history, s.solver.lbfgs_history},
+                   {sk::SceneSolver::project_contact_crossings, s.solver.project_contact_crossings},
+                   {sk::SceneSolver::local_steps, s.solver.local_steps}};
   std::ofstream out(dir / "scene.json");
   if (!out) return Status::Error((dir / "scene.json").string() + ": cannot open for writing");
   out << doc.dump(2) << '\n';

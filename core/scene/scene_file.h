@@ -12,7 +12,9 @@
 // garment of its own: in the initial positions). Clamp boxes select vertices by rest position.
 #pragma once
 
+#include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/scene/scene.h"
@@ -23,6 +25,18 @@ namespace kgd {
 // Reads and validates a scene file; errors name the file, the key or the element. `files_read`
 // (optional) receives every file the scene names, as written in it (relative to the scene's folder).
 Result<SceneSpec> LoadScene(const std::string& path, std::vector<std::string>* files_read = nullptr);
+
+// A scene file and the files it names, in memory (a job sent to the service): `files` maps each path as
+// the scene names it (relative to the scene file) to the file's bytes. The views must outlive the load.
+struct SceneBundle {
+  std::string name = "scene.json";  // the scene file's name in messages; its stem names an unnamed scene
+  std::string_view scene_json;
+  std::map<std::string, std::string_view> files;
+};
+
+// LoadScene on a bundle: the same checks and messages, file names as the scene gives them; a file the
+// scene names but the bundle lacks is an error that names it.
+Result<SceneSpec> LoadScene(const SceneBundle& bundle, std::vector<std::string>* files_read = nullptr);
 
 // Writes `spec` as DIR/scene.json plus meshes (OBJ) and index lists; creates DIR if needed.
 Status ExportScene(const SceneSpec& spec, const std::string& dir);

@@ -71,6 +71,17 @@
 
 namespace kgd {
 
+// Every key as a constant, scene_key::SECTION::KEY (e.g. scene_key::SceneMaterial::thickness_m): the
+// loader and the exporter spell keys only through these, so a key they use is a key of the list.
+namespace scene_key {
+#define KGD_SCENE_KEY_CONSTANT(section, key, what) \
+  namespace section {                              \
+  inline constexpr char key[] = #key;              \
+  }
+KGD_SCENE_KEYS(KGD_SCENE_KEY_CONSTANT)
+#undef KGD_SCENE_KEY_CONSTANT
+}  // namespace scene_key
+
 struct SceneKey {
   const char* section;
   const char* key;

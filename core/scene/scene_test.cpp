@@ -4,6 +4,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <map>
 
 #include "core/scene/simulate.h"
 #include "core/scene/scene_file.h"
@@ -77,6 +79,61 @@ TEST(Scene, ExportThenLoadReproducesTheBuiltinResult) {
     EXPECT_TRUE(a->solve.converged());
     // OBJ stores 9 significant digits, so agreement is to that precision, not bitwise.
     EXPECT_NEAR(a->solve.energy_J, b->solve.energy_J, 1e-6 * std::abs(a->solve.energy_J)) << name;
+  }
+}
+
+// A scene sent with a job is loaded from memory, not from a folder: the same scene as from its folder,
+// bit for bit, and a file the bundle lacks, or one that does not parse, is named as the scene names it.
+TEST(Scene, ABundleInMemoryLoadsAsTheSceneFolder) {
+  for (const std::string name : {"pull_test_x", "sleeve_on_limb"}) {
+    auto builtin = BuiltinScene(name);
+    ASSERT_TRUE(builtin.ok());
+    const std::filesystem::path dir = TempDir("bundle_" + name);
+    ASSERT_TRUE(ExportScene(*builtin, dir.string()).ok());
+    std::vector<std::string> named;
+    auto from_folder = LoadScene((dir / "scene.json").string(), &named);
+    ASSERT_TRUE(from_folder.ok()) << from_folder.message();
+    auto bytes = [](const std::filesystem::path& p) {
+      std::ifstream in(p, std::ios::binary);
+      return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    };
+    const std::string json = bytes(dir / "scene.json");
+    std::map<std::string, std::string> contents;
+    for (const std::string& file : named) contents[file] = bytes(dir / file);
+    SceneBundle bundle;
+    bundle.scene_json = json;
+    for (const auto& [file, content] : contents) bundle.files[file] = content;
+    std::vector<std::string> named_in_bundle;
+    auto from_memory = LoadScene(bundle, &named_in_bundle);
+    ASSERT_TRUE(from_memory.ok()) << from_memory.message();
+    EXPECT_EQ(named_in_bundle, named);
+    EXPECT_EQ(from_memory->name, from_folder->name);
+    EXPECT_TRUE(from_memory->garment.vertices == from_folder->garment.vertices) << name;
+    EXPECT_TRUE(from_memory->garment.faces == from_folder->garment.faces) << name;
+    EXPECT_TRUE(from_memory->initial == from_folder->initial) << name;
+    EXPECT_EQ(from_memory->design, from_folder->design);
+    EXPECT_EQ(from_memory->attachment_faces, from_folder->attachment_faces);
+    ASSERT_EQ(from_memory->clamps.size(), from_folder->clamps.size());
+    for (size_t c = 0; c < from_memory->clamps.size(); ++c) EXPECT_EQ(from_memory->clamps[c].vertices, from_folder->clamps[c].vertices);
+    ASSERT_EQ(from_memory->body.has_value(), from_folder->body.has_value());
+    if (from_memory->body) {
+      EXPECT_TRUE(from_memory->body->vertices == from_folder->body->vertices) << name;
+    }
+
+    const std::string first = named.front();
+    SceneBundle missing = bundle;
+    missing.files.erase(first);
+    auto lacking = LoadScene(missing);
+    ASSERT_FALSE(lacking.ok());
+    EXPECT_EQ(lacking.message(), first + ": not among the scene's files") << lacking.message();
+
+    SceneBundle broken = bundle;
+    const std::string garbage = "v 0 0 0\nv 1 0 zero\n";
+    const std::string mesh = from_folder->body ? "body.obj" : "garment_rest.obj";
+    broken.files[mesh] = garbage;
+    auto unparsed = LoadScene(broken);
+    ASSERT_FALSE(unparsed.ok());
+    EXPECT_EQ(unparsed.message().rfind(mesh + ":2: vertex 1", 0), 0u) << unparsed.message();
   }
 }
 
