@@ -48,12 +48,27 @@ else
   $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
 
+# The tests' Node.js libraries (playwright-core, kubernetes-models) need Node.js 20 or newer; Debian 12's
+# own nodejs is 18. The web page itself does not: with an older Node.js only its libraries are installed.
+NODE_MAJOR=$(node -p 'process.versions.node.split(".")[0]' 2>/dev/null || echo 0)
+NPM_OMIT=""
+if [ "$NODE_MAJOR" -lt 20 ]; then
+  if [ $BROWSER -eq 1 ]; then
+    echo "setup: Node.js $(node --version 2>/dev/null || echo '(none)') is older than 20, which the tests' playwright-core and" >&2
+    echo "       kubernetes-models need. Install Node.js 20 or newer (Debian 13's nodejs package, or NodeSource's" >&2
+    echo "       nodejs 20 for Debian 12), then run this again. make demo works with the Node.js you have." >&2
+    exit 1
+  fi
+  echo "setup: Node.js $(node --version 2>/dev/null) is older than 20: installing the web page's libraries only (make test needs Node.js 20)"
+  NPM_OMIT="--omit=dev"
+fi
+
 # The web page's libraries (three.js, uPlot) and the browser tests' driver (playwright-core), exactly as
 # locked; again only when the lock file is newer than the installed tree.
 WEB="$(cd "$(dirname "$0")/.." && pwd)/client/web"
 if [ ! -f "$WEB/node_modules/.package-lock.json" ] || [ "$WEB/package-lock.json" -nt "$WEB/node_modules/.package-lock.json" ]; then
   echo "setup: npm ci in client/web"
-  (cd "$WEB" && npm ci --no-audit --no-fund --loglevel=error)
+  (cd "$WEB" && npm ci $NPM_OMIT --no-audit --no-fund --loglevel=warn)
 else
   echo "setup: client/web/node_modules is up to date"
 fi
@@ -61,11 +76,11 @@ fi
 # The Kubernetes schemas that tests/deploy validates the manifests against (kubernetes-models,
 # @kubernetes-models/keda), exactly as locked; not in an image's build stage, which has no tests/.
 DEPLOY_TESTS="$(cd "$(dirname "$0")/.." && pwd)/tests/deploy"
-if [ ! -f "$DEPLOY_TESTS/package-lock.json" ]; then
+if [ ! -f "$DEPLOY_TESTS/package-lock.json" ] || [ "$NODE_MAJOR" -lt 20 ]; then
   :
 elif [ ! -f "$DEPLOY_TESTS/node_modules/.package-lock.json" ] || [ "$DEPLOY_TESTS/package-lock.json" -nt "$DEPLOY_TESTS/node_modules/.package-lock.json" ]; then
   echo "setup: npm ci in tests/deploy"
-  (cd "$DEPLOY_TESTS" && npm ci --no-audit --no-fund --loglevel=error)
+  (cd "$DEPLOY_TESTS" && npm ci --no-audit --no-fund --loglevel=warn)
 else
   echo "setup: tests/deploy/node_modules is up to date"
 fi
