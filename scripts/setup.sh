@@ -49,16 +49,33 @@ else
 fi
 
 # The tests' Node.js libraries (playwright-core, kubernetes-models) need Node.js 20 or newer; Debian 12's
-# own nodejs is 18. The web page itself does not: with an older Node.js only its libraries are installed.
-NODE_MAJOR=$(node -p 'process.versions.node.split(".")[0]' 2>/dev/null || echo 0)
-NPM_OMIT=""
-if [ "$NODE_MAJOR" -lt 20 ]; then
-  if [ $BROWSER -eq 1 ]; then
-    echo "setup: Node.js $(node --version 2>/dev/null || echo '(none)') is older than 20, which the tests' playwright-core and" >&2
-    echo "       kubernetes-models need. Install Node.js 20 or newer (Debian 13's nodejs package, or NodeSource's" >&2
-    echo "       nodejs 20 for Debian 12), then run this again. make demo works with the Node.js you have." >&2
+# own nodejs is 18. For the tests (--browser), an older Node.js gets Node.js 20 beside it from the npm
+# registry's node-linux-<arch> package, linked as /usr/local/bin/node. The web page itself does not need
+# it: without --browser an older Node.js installs the page's libraries only.
+NODE_VERSION=20.20.2
+node_major() { node -p 'process.versions.node.split(".")[0]' 2>/dev/null || echo 0; }
+NODE_MAJOR=$(node_major)
+if [ "$NODE_MAJOR" -lt 20 ] && [ $BROWSER -eq 1 ]; then
+  case "$(uname -m)" in x86_64) NODE_ARCH=x64 ;; aarch64) NODE_ARCH=arm64 ;; *) NODE_ARCH=unknown ;; esac
+  echo "setup: Node.js $(node --version 2>/dev/null || echo '(none)') is older than 20: installing Node.js $NODE_VERSION (npm package node-linux-$NODE_ARCH) as /usr/local/bin/node"
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  NODE_BIN=/usr/local/lib/kgd-node/node_modules/node-linux-$NODE_ARCH/bin/node
+  $SUDO npm install --prefix /usr/local/lib/kgd-node --no-save --no-audit --no-fund --loglevel=warn "node-linux-$NODE_ARCH@$NODE_VERSION" || true
+  if [ -x "$NODE_BIN" ]; then
+    $SUDO ln -sf "$NODE_BIN" /usr/local/bin/node
+    hash -r
+  fi
+  NODE_MAJOR=$(node_major)
+  if [ "$NODE_MAJOR" -lt 20 ]; then
+    echo "setup: could not install Node.js 20, which the tests' playwright-core and kubernetes-models need." >&2
+    echo "       Install Node.js 20 or newer (Debian 13's nodejs, or NodeSource's nodejs 20 for Debian 12) so that" >&2
+    echo "       'node' on the PATH is that one, then run this again. make demo works with the Node.js you have." >&2
     exit 1
   fi
+fi
+NPM_OMIT=""
+if [ "$NODE_MAJOR" -lt 20 ]; then
   echo "setup: Node.js $(node --version 2>/dev/null) is older than 20: installing the web page's libraries only (make test needs Node.js 20)"
   NPM_OMIT="--omit=dev"
 fi
