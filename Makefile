@@ -37,14 +37,24 @@ stability: build
 	cd $(BUILD) && $(TEST_ENV) ctest --output-on-failure -L stability --timeout 3600
 
 # The same suite built with AddressSanitizer and UndefinedBehaviorSanitizer.
+SANITIZE_BUILD = build-sanitize
+SANITIZE_FLAGS = -DKGD_SANITIZE=ON -DKGD_BUILD_BENCHMARKS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo
 test-sanitize:
-	$(MAKE) test BUILD=build-sanitize CMAKE_FLAGS="-DKGD_SANITIZE=ON -DKGD_BUILD_BENCHMARKS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo"
+	$(MAKE) test BUILD=$(SANITIZE_BUILD) CMAKE_FLAGS="$(SANITIZE_FLAGS)"
 
-# The mutation harness over kgd's inputs (scene files, job specs and records, design files, the HTTP
-# door): FUZZ_CASES per target, every case checked for crash, hang or internal error.
+# The mutation harness over kgd's inputs (scene files and the body scenes' exported files, job specs
+# and records, design files, the HTTP door with tokens and a finished job), built with the sanitizers
+# in $(SANITIZE_BUILD) (only the programs it runs): FUZZ_CASES per target from FUZZ_SEED, every case
+# checked for crash, hang, sanitizer report (UBSan halts on its first) or internal error. `make test`
+# runs 300 cases per target of it (the test fuzz_smoke).
 FUZZ_CASES ?= 2000
-fuzz: build
-	$(BUILD)/tests/kgd_fuzz --source . --kgd $(BUILD)/client/kgd --server $(BUILD)/server/kgd-server --cases $(FUZZ_CASES)
+FUZZ_SEED ?= 1
+fuzz: setup
+	cmake -S . -B $(SANITIZE_BUILD) $(SANITIZE_FLAGS)
+	cmake --build $(SANITIZE_BUILD) -j$(JOBS) --target kgd kgd-server kgd-worker kgd_fuzz
+	cd $(SANITIZE_BUILD) && KGD_CACHE_DIR=$(abspath $(SANITIZE_BUILD))/test-cache UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+	  tests/kgd_fuzz --source $(CURDIR) --kgd client/kgd --server server/kgd-server --worker worker/kgd-worker \
+	  --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
 
 bench: build
 	bash bench/run.sh $(BUILD)
