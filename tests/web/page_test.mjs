@@ -1,7 +1,10 @@
 // The web page in headless Chromium (Debian's chromium, driven by playwright-core from
-// client/web/node_modules) against a real `kgd serve`: submit a job, see the chart grow and the WebGL
-// canvas change, scrub to the first and the last iteration, download a PLY, show a validation error,
-// cancel a second job, and lay out at desktop and tablet widths. Screenshots go to --artifacts.
+// client/web/node_modules) against a real `kgd serve`: refuse an invalid form without asking the
+// server, submit a job and follow it live (the chart grows, the 3D view draws each new iteration's
+// positions and design), scrub to the first and the server's last iteration and compare what is drawn
+// with the API's positions and design, download a PLY, cancel a second job (the server's state becomes
+// CANCELLED), lay out at desktop and tablet widths, and follow a job through the event stream on a
+// server with tokens. Screenshots go to --artifacts.
 // Exit 77 (ctest: skipped) with a message where Chromium or playwright-core is absent.
 //   node tests/web/page_test.mjs --kgd build/client/kgd --artifacts build/test-artifacts/web
 import { spawn } from 'node:child_process';
@@ -38,6 +41,67 @@ async function until(what, fn, timeoutMs = 60000) {
     await new Promise((r) => setTimeout(r, 100));
   }
 }
+// The HTTP API, beside the page (base: the server's address with a trailing slash).
+async function apiGet(base, p, headers = {}) {
+  const r = await fetch(base + p, { headers });
+  if (!r.ok) throw new Error(`GET ${p}: HTTP ${r.status}`);
+  return r;
+}
+const apiJson = async (base, p, headers) => (await apiGet(base, p, headers)).json();
+const apiBytes = async (base, p, headers) => new Uint8Array(await (await apiGet(base, p, headers)).arrayBuffer());
+const apiFloats = async (base, p, headers) => { const b = await apiBytes(base, p, headers); return new Float32Array(b.buffer, b.byteOffset, b.byteLength / 4); };
+
+// The garment the 3D view draws (its vertex buffers: one vertex per face corner) and the iteration the
+// page says it shows, read in one step so that no live update comes between them.
+const drawn = (page) => page.evaluate(() => {
+  const v = window.kgd.view, g = v.garment?.geometry;
+  if (!g) return null;
+  return { shown: window.kgd.state.shown, faces: Array.from(v.faces), pos: Array.from(g.attributes.position.array), col: Array.from(g.attributes.color.array) };
+});
+
+// Compares the drawn garment with the API's positions and design of the iteration the page shows: every
+// corner at its vertex's position, every face one colour, the reinforced faces (design 1) in one dark
+// colour and the others in one light colour ("Design (reinforced dark)"). Returns a list of problems.
+async function compareDrawn(base, jobId, d) {
+  const problems = [];
+  const x = await apiFloats(base, `v1/jobs/${jobId}/iterations/${d.shown}/positions.f32`);
+  const design = await apiBytes(base, `v1/jobs/${jobId}/iterations/${d.shown}/design.u8`);
+  const nf = d.faces.length / 3;
+  if (design.length !== nf) return [`${design.length} design values for ${nf} faces`];
+  let posErr = 0, split = 0;
+  const colours = [new Set(), new Set()];
+  const wrong = [0, 0];
+  for (let t = 0; t < nf; ++t) {
+    for (let k = 0; k < 3; ++k) {
+      const v = d.faces[3 * t + k], o = 9 * t + 3 * k;
+      for (let a = 0; a < 3; ++a) posErr = Math.max(posErr, Math.abs(d.pos[o + a] - x[3 * v + a]));
+      if (d.col[o] !== d.col[9 * t] || d.col[o + 1] !== d.col[9 * t + 1] || d.col[o + 2] !== d.col[9 * t + 2]) split++;
+    }
+    const r = design[t] ? 1 : 0, c = [d.col[9 * t], d.col[9 * t + 1], d.col[9 * t + 2]];
+    colours[r].add(c.map((q) => q.toFixed(3)).join(','));
+    const light = c[0] + c[1] + c[2] > 1.5;
+    if (light !== (r === 0)) wrong[r]++;
+  }
+  if (posErr > 0) problems.push(`corners up to ${posErr} m from the API's positions`);
+  if (split) problems.push(`${split} face corners coloured unlike their face`);
+  if (wrong[1]) problems.push(`${wrong[1]} reinforced faces drawn light`);
+  if (wrong[0]) problems.push(`${wrong[0]} unreinforced faces drawn dark`);
+  for (const r of [0, 1]) if (colours[r].size > 1) problems.push(`${colours[r].size} colours for ${r ? '' : 'un'}reinforced faces`);
+  return problems;
+}
+
+// The share of the canvas's pixels in the reinforced colour's hue (dark blue: blue well above red).
+const bluePixels = (page) => page.evaluate(() => {
+  const src = document.getElementById('view'), c = document.createElement('canvas');
+  c.width = src.width; c.height = src.height;
+  const ctx = c.getContext('2d');
+  ctx.drawImage(src, 0, 0);
+  const p = ctx.getImageData(0, 0, c.width, c.height).data;
+  let n = 0;
+  for (let i = 0; i < p.length; i += 4) if (p[i + 2] - p[i] > 25) n++;
+  return n / (c.width * c.height);
+});
+
 function freePort() {
   return new Promise((resolve) => { const s = net.createServer(); s.listen(0, '127.0.0.1', () => { const p = s.address().port; s.close(() => resolve(p)); }); });
 }
@@ -61,15 +125,20 @@ try {
   const page = await context.newPage();
   const pageErrors = [];
   page.on('pageerror', (e) => pageErrors.push(e.message));
+  const jobPosts = [];
+  page.on('request', (r) => { if (r.method() === 'POST' && new URL(r.url()).pathname === '/v1/jobs') jobPosts.push(r.url()); });
   await page.goto(base);
   await until('the scene list', () => page.evaluate(() => document.querySelectorAll('#scene option').length > 0));
 
-  // A validation error shows next to its field, and nothing is submitted.
+  // The page refuses an invalid form itself: the message shows next to its field, and no job is posted
+  // (the server would refuse a budget of 1.5 too, with a message of the same words).
   await page.fill('#budget', '1.5');
   await page.click('#submit-button');
-  const budgetError = await page.textContent('.error[data-for="budget"]');
-  check(/budget/.test(budgetError) && /1\.5/.test(budgetError), `a budget of 1.5 is refused next to its field ("${budgetError}")`);
-  check(await page.evaluate(() => window.kgd.state.jobs.size === 0), 'no job was created by the invalid form');
+  const budgetError = await until('the budget error', () => page.textContent('.error[data-for="budget"]'), 10000).catch(() => '');
+  const besideBudget = await page.evaluate(() => document.getElementById('budget').nextElementSibling?.matches('.error[data-for="budget"]'));
+  check(/budget/.test(budgetError) && /1\.5/.test(budgetError) && besideBudget, `a budget of 1.5 is refused right after its field ("${budgetError}")`);
+  check(jobPosts.length === 0, `the page posted no job for the invalid form (${jobPosts.length} POST /v1/jobs)`);
+  check(!(await apiJson(base, 'v1/jobs')).jobs?.length, 'the server has no job');
 
   // Submit a short arm-flexion job and follow it live.
   await page.selectOption('#scene', 'arm_flexion');
@@ -84,7 +153,7 @@ try {
     for (let i = 0; i < s.length; ++i) h = (h * 31 + s.charCodeAt(i)) | 0;
     return h;
   });
-  const firstHash = await canvasHash();
+  const jobId = await page.evaluate(() => window.kgd.state.selected);
   const firstShown = await page.evaluate(() => window.kgd.state.shown);
   const firstPoints = await page.evaluate(() => window.kgd.charts.ratio.data[0].length);
   await page.screenshot({ path: path.join(artifacts, 'live-early.png') });
@@ -93,30 +162,47 @@ try {
   await until('a later iteration on screen and in the chart', () => page.evaluate(([n, p]) =>
     window.kgd.state.shown > n + 2 && window.kgd.charts.ratio.data[0].length > p, [firstShown, firstPoints]), 120000)
     .catch(() => {});
-  const laterHash = await canvasHash();
   const laterPoints = await page.evaluate(() => window.kgd.charts.ratio.data[0].length);
+  const live = await drawn(page);
   check(laterPoints > firstPoints, `the density-ratio chart grows (${firstPoints} -> ${laterPoints} points)`);
-  check(laterHash !== firstHash, 'the WebGL canvas changes between iterations');
+  const liveProblems = await compareDrawn(base, jobId, live);
+  check(live.shown > firstShown && liveProblems.length === 0,
+    `the 3D view follows the run: it draws iteration ${live.shown} (first ${firstShown}) with the API's positions and design${liveProblems.length ? ': ' + liveProblems.join('; ') : ''}`);
 
-  // The job ends; scrub to the first and the last iteration.
-  const jobId = await page.evaluate(() => window.kgd.state.selected);
-  await until('the job to end', () => page.evaluate(() => window.kgd.state.job && window.kgd.state.job.state === 'SUCCEEDED'), 180000);
-  const last = await page.evaluate(() => window.kgd.state.metrics.length - 1);
+  // The job ends; the page has every iteration the server stored; scrub to the first and the last.
+  await until('the job to end', async () => (await apiJson(base, `v1/jobs/${jobId}`)).state === 'SUCCEEDED', 180000);
+  const stored = await apiJson(base, `v1/jobs/${jobId}`);
+  const last = stored.iterations - 1;
+  const received = await until('every stored iteration in the page', () => page.evaluate((n) => {
+    const s = window.kgd.state;
+    return s.job?.state === 'SUCCEEDED' && s.metrics.length === n && s.metrics.filter(Boolean).length === n ? n : 0;
+  }, stored.iterations), 20000).catch(() => page.evaluate(() => `${window.kgd.state.metrics.filter(Boolean).length} of ${window.kgd.state.metrics.length}`));
+  const pageCounts = await page.evaluate(() => ({ scrubMax: Number(document.getElementById('scrub').max), points: window.kgd.charts.ratio.data[0].length }));
+  check(received === stored.iterations && pageCounts.scrubMax === last && pageCounts.points === stored.iterations,
+    `the page has the server's ${stored.iterations} iterations (received ${received}, scrubber up to ${pageCounts.scrubMax}, ${pageCounts.points} chart points)`);
   const scrubTo = async (n) => {
     await page.evaluate((v) => { const s = document.getElementById('scrub'); s.value = v; s.dispatchEvent(new Event('input')); }, n);
     await until(`iteration ${n} on screen`, () => page.evaluate((v) => window.kgd.state.target?.kind === 'iteration' && window.kgd.state.shown === v && !window.kgd.state.loading && !window.kgd.state.pending, n));
   };
   await scrubTo(0);
-  const hash0 = await canvasHash();
+  const drawn0 = await drawn(page);
+  const blue0 = await bluePixels(page);
   const text0 = await page.textContent('#metrics');
   await page.screenshot({ path: path.join(artifacts, 'iteration-first.png') });
   await scrubTo(last);
-  const hashLast = await canvasHash();
+  const drawnLast = await drawn(page);
+  const blueLast = await bluePixels(page);
   const textLast = await page.textContent('#metrics');
   await page.screenshot({ path: path.join(artifacts, 'iteration-last.png') });
   check(/reinforced area 100\.0 %/.test(text0), `iteration 0 is fully reinforced ("${text0}")`);
-  check(textLast.startsWith(`iteration ${last}:`), `the scrubber reaches the last iteration, ${last} ("${textLast}")`);
-  check(hash0 !== hashLast, 'the first and the last design look different');
+  check(textLast.startsWith(`iteration ${last}:`) && textLast.includes(`density ratio ${stored.last.densityRatio.toFixed(3)}`),
+    `the scrubber reaches the server's last iteration, ${last}, with its density ratio ${stored.last.densityRatio.toFixed(3)} ("${textLast}")`);
+  for (const [n, d] of [[0, drawn0], [last, drawnLast]]) {
+    const problems = d.shown === n ? await compareDrawn(base, jobId, d) : [`iteration ${d.shown} is drawn`];
+    check(problems.length === 0, `iteration ${n} is drawn with the API's positions and design${problems.length ? ': ' + problems.join('; ') : ''}`);
+  }
+  // The colours reach the screen: the reinforced colour covers much less of the canvas at the end.
+  check(blue0 > 0.02 && blueLast < 0.6 * blue0, `the canvas shows the designs: ${(100 * blue0).toFixed(1)} % of it in the reinforced colour at iteration 0, ${(100 * blueLast).toFixed(1)} % at ${last}`);
   // The final design over the motion and beside the Line and X (the evaluation after the last iteration).
   await until('the explorer', () => page.evaluate(() => !document.getElementById('explorer').hidden), 120000);
   const frames = Number(await page.getAttribute('#frame', 'max'));
@@ -168,9 +254,14 @@ try {
   await page.click('#submit-button');
   const secondId = await until('the second job', () => page.evaluate((first) => { const s = window.kgd.state.selected; return s !== first ? s : null; }, jobId));
   await until('its cancel button', () => page.locator(`tr[data-id="${secondId}"] button`).count());
+  check((await apiJson(base, `v1/jobs/${secondId}`)).state !== 'CANCELLED', `job ${secondId} is not cancelled before the click`);
   await page.click(`tr[data-id="${secondId}"] button`);
-  await until('the second job cancelled', () => page.evaluate((id) => window.kgd.state.jobs.get(id)?.state === 'CANCELLED', secondId), 60000);
-  check(true, `job ${secondId} is cancelled from the page`);
+  const cancelled = await until('the server to cancel the second job', async () => (await apiJson(base, `v1/jobs/${secondId}`)).state === 'CANCELLED', 60000)
+    .then(() => true, () => false);
+  check(cancelled, `the Cancel button cancels job ${secondId} on the server (state ${(await apiJson(base, `v1/jobs/${secondId}`)).state})`);
+  const listed = await until('the jobs list to show it cancelled', () => page.evaluate((id) => window.kgd.state.jobs.get(id)?.state === 'CANCELLED'
+    && document.querySelector(`tr[data-id="${id}"] .state-CANCELLED`) !== null, secondId), 10000).then(() => true, () => false);
+  check(listed, `the jobs list shows job ${secondId} CANCELLED`);
   await page.screenshot({ path: path.join(artifacts, 'desktop-1280x800.png') });
 
   // Tablet width: one column, nothing wider than the screen.
@@ -205,14 +296,28 @@ try {
     const tokenPage = await tokenContext.newPage();
     let asked = 0;
     tokenPage.on('dialog', (d) => { asked++; d.accept(token); });
+    const watches = [];
+    tokenPage.on('response', (r) => { if (new URL(r.url()).pathname.endsWith(':watch')) watches.push(`${r.status()} ${r.headers()['content-type']}`); });
     await tokenPage.goto(`http://127.0.0.1:${http2}/`);
     await until('the scene list behind a token', () => tokenPage.evaluate(() => document.querySelectorAll('#scene option').length > 0));
     check(asked === 1, `the page asked for the token once (${asked})`);
     await tokenPage.selectOption('#scene', 'sleeve_on_limb');
     await tokenPage.click('#submit-button');
-    const followed = await until('the job to run behind a token',
-      () => tokenPage.evaluate(() => [...window.kgd.state.jobs.values()].some((j) => (j.iterations || 0) > 0))).then(() => true, () => false);
-    check(followed, 'a job submitted and followed live with a token (header for the API, cookie for the event stream)');
+    // The iterations' metrics come to the page only through the event stream (the jobs list's poll
+    // carries a count and the last metrics): wait for the first two, and compare them with the API's.
+    const streamed = await until('two iterations through the event stream behind a token', () => tokenPage.evaluate(() => {
+      const s = window.kgd.state;
+      return s.metrics[0] && s.metrics[1] ? { id: s.selected, metrics: [s.metrics[0], s.metrics[1]] } : null;
+    }), 120000).catch(() => null);
+    const auth = { Authorization: `Bearer ${token}` };
+    const base2 = `http://127.0.0.1:${http2}/`;
+    const close = (a, b) => typeof a === 'number' && typeof b === 'number' && Math.abs(a - b) <= 1e-12 * Math.max(1, Math.abs(a));
+    const same = streamed && (await Promise.all([0, 1].map(async (n) => {
+      const m = (await apiJson(base2, `v1/jobs/${streamed.id}/iterations/${n}`, auth)).record.metrics, s = streamed.metrics[n];
+      return (m.iteration ?? 0) === (s.iteration ?? 0) && ['areaFraction', 'energyJ', 'densityRatio'].every((k) => close(m[k], s[k]));
+    }))).every(Boolean);
+    check(streamed && same && watches.some((w) => w.startsWith('200 text/event-stream')),
+      `a job submitted and followed live with a token through the event stream (header for the API, cookie for the stream; watch responses: ${watches.join(', ') || 'none'}; iterations 0 and 1 ${streamed ? (same ? 'as the API has them' : 'unlike the API') : 'never streamed'})`);
     await tokenContext.close();
   } finally {
     secured.kill('SIGTERM');
@@ -221,6 +326,7 @@ try {
 } catch (e) {
   console.log(`FAIL ${e.message}`);
   failures++;
+  for (const p of browser?.contexts().flatMap((c) => c.pages()) || []) await p.screenshot({ path: path.join(artifacts, 'failure.png') }).catch(() => {});
 } finally {
   if (browser) await browser.close();
   serve.kill('SIGTERM');
