@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <omp.h>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -115,6 +116,15 @@ Positions Unflat(const Eigen::VectorXd& q) {
   return x;
 }
 
+// Finite differences of a whole system take thousands of evaluations of a small garment: on one thread
+// (the results are bit-identical whatever the thread count), as the threads' synchronization would cost
+// more than the work on a busy machine. Restores the thread count when it goes.
+struct OneThread {
+  int before = omp_get_max_threads();
+  OneThread() { omp_set_num_threads(1); }
+  ~OneThread() { omp_set_num_threads(before); }
+};
+
 // One term of the system as a function of all 3n coordinates: energy, gradient and assembled Hessian
 // of `with` minus those of `without` (null: nothing), both evaluated at the same positions.
 testing::TermFunction TermPart(GarmentSystem& with, GarmentSystem* without) {
@@ -140,6 +150,7 @@ testing::TermFunction TermPart(GarmentSystem& with, GarmentSystem* without) {
 // on: membrane (mixed regimes and design), fold barrier, attachments, contact of each model, friction
 // (lagged pressed into the body) and bending; the attachment Hessian is exact and checked too.
 TEST(GarmentSystem, EachTermsGradientMatchesFiniteDifferencesOnEveryCoordinate) {
+  const OneThread one_thread;
   std::set<std::string> checked;
   for (ContactModel contact : {ContactModel::kUnilateral, ContactModel::kBilateral, ContactModel::kNone}) {
     SCOPED_TRACE(contact == ContactModel::kNone ? "no contact" : contact == ContactModel::kUnilateral ? "unilateral" : "bilateral");
@@ -206,6 +217,7 @@ TEST(GarmentSystem, EachTermsGradientMatchesFiniteDifferencesOnEveryCoordinate) 
 //    block on a vertex (q is linear in each vertex), so on every vertex the assembled block is the exact
 //    one: the sleeve shrunk to a twentieth of its area, every face active.
 TEST(GarmentSystem, AssembledHessiansOfFrictionBendingAndFoldBarrierMatchFiniteDifferences) {
+  const OneThread one_thread;
   SceneSpec s = SmallSleeve(ContactModel::kUnilateral);
   for (size_t f = 0; f < s.design.size(); f += 3) s.design[f] = kReinforced;
   auto model = BuildGarmentModel(s);
