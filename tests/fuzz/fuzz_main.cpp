@@ -1,18 +1,20 @@
 // kgd_fuzz: a mutation harness over the inputs kgd takes from outside (`make fuzz` under the
 // sanitizers; a few hundred cases per target in `make test` as the ctest fuzz_smoke).
 //
-//   scene    scene files and their meshes (LoadScene), mutated: the pull-test examples and scenes with a
-//            body exported at the start (`kgd scene export`, --body-scenes)
+//   scene    scene files and their meshes (LoadScene), mutated: the pull-test examples, a small scene
+//            with a body motion written at the start, and scenes with a body exported at the start
+//            (`kgd scene export`, --body-scenes)
 //   proto    job specs with uploaded scene files as protobuf bytes and as JSON (the HTTP layer's
 //            parser), pull-test and body scenes, iteration records and garments (RecordFromProto,
 //            GarmentFromProto), mutated
 //   design   design files (ReadDesignFile, and DesignFileWriter::Reopen's repair), mutated bytes
-//   http     a real kgd-server --http with --auth-tokens and a finished job (run by a kgd-worker, which
-//            then stops, so that the jobs the cases create stay queued): raw requests over loopback to
-//            every route (the job's iterations, cut files, evaluation, watch, arrays) with real and
-//            mutated ids, JSON and multipart bodies, valid, other users', unknown and mutated tokens,
-//            and mutated headers (Content-Type, Content-Length, Transfer-Encoding, Last-Event-ID, Range,
-//            huge headers, odd methods and versions, broken head bytes)
+//   http     a real kgd-server --http with --auth-tokens and a finished job (the small motion scene
+//            uploaded, run by a kgd-worker, which then stops, so that the jobs the cases create stay
+//            queued): raw requests over loopback to every route (the job's iterations, cut files,
+//            evaluation frames and baselines, watch, arrays) with real and mutated ids, JSON and
+//            multipart bodies, valid, other users', unknown and mutated tokens, and mutated headers
+//            (Content-Type, Content-Length, Transfer-Encoding, Last-Event-ID, Range, huge headers, odd
+//            methods and versions, broken head bytes)
 //
 // Every case of the first three runs in a child process with a time limit, so that a crash or a hang is
 // caught and named (target, case, seed) rather than ending the run. Each HTTP case must be answered
@@ -37,6 +39,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -168,8 +171,62 @@ SeedScenes FolderSeeds(const std::string& name, const fs::path& dir, const std::
   return s;
 }
 
-// The seeds: the pull-test examples, and each of `body_scenes` exported by `kgd scene export` into
-// `dir`. A scene with motion frames keeps its first two, so that a case loads in well under a second.
+// A small scene with a body motion, written into `dir`: a closed cylinder (radius 4 cm, 30 cm long,
+// 602 vertices) whose middle bulges by 6 % in the deformed pose and 3 % in the first of two frames, a
+// garment cut from the band of its side between 6 and 18 cm of the 25 rings, attached at the band's
+// ends. A design job on it takes well under a second, and its evaluation has frames.
+void WriteMotionScene(const fs::path& dir) {
+  fs::create_directories(dir);
+  const double r = 0.04, length = 0.3, pi = 3.14159265358979323846;
+  const int around = 24, rings = 25, band_lo = 6, band_hi = 18;
+  auto write_pose = [&](const std::string& name, double bulge, bool lists) {
+    std::ofstream out(dir / name), region, attach;
+    if (lists) region.open(dir / "region.txt"), attach.open(dir / "attachment_body_faces.txt");
+    char line[96];
+    for (int j = 0; j < rings; ++j) {
+      const double y = -length / 2 + length * j / (rings - 1), radius = r * (1 + bulge * std::exp(-(y / 0.06) * (y / 0.06)));
+      for (int i = 0; i < around; ++i) {
+        std::snprintf(line, sizeof line, "v %.9g %.9g %.9g\n", radius * std::cos(2 * pi * i / around), y, radius * std::sin(2 * pi * i / around));
+        out << line;
+      }
+    }
+    out << "v 0 " << -length / 2 << " 0\nv 0 " << length / 2 << " 0\n";
+    int face = 0;
+    for (int j = 0; j + 1 < rings; ++j)
+      for (int i = 0; i < around; ++i) {
+        const int a = j * around + i + 1, b = j * around + (i + 1) % around + 1, c = a + around, d = b + around;
+        out << "f " << a << " " << c << " " << b << "\nf " << b << " " << c << " " << d << "\n";
+        for (int k = 0; k < 2; ++k, ++face) {
+          if (j >= band_lo && j < band_hi) region << face << "\n";
+          if (j == band_lo || j == band_hi - 1) attach << face << "\n";
+        }
+      }
+    const int bottom = rings * around + 1, top = bottom + 1;
+    for (int i = 0; i < around; ++i)
+      out << "f " << bottom << " " << i + 1 << " " << (i + 1) % around + 1 << "\nf " << top << " " << (rings - 1) * around + (i + 1) % around + 1 << " "
+          << (rings - 1) * around + i + 1 << "\n";
+  };
+  write_pose("rest.obj", 0, true);
+  write_pose("deformed.obj", 0.06, false);
+  write_pose("frame_1.obj", 0.03, false);
+  std::ofstream(dir / "scene.json") << R"({
+  "name": "fuzz_motion",
+  "body": {"rest": "rest.obj", "deformed": "deformed.obj", "frames": ["frame_1.obj", "deformed.obj"], "support_scale": 2.0},
+  "garment": {"region": "region.txt", "subdivisions": 0, "design": "all_cloth"},
+  "materials": {"lame": "solid3d", "cloth": {"youngs_modulus_Pa": 5e5, "poisson_ratio": 0.33, "thickness_m": 0.00027},
+                "reinforced": {"youngs_modulus_Pa": 5.7e6, "poisson_ratio": 0.33, "thickness_m": 0.00035}},
+  "effects": {"membrane": true, "relaxation": "exact", "fold_barrier": true, "contact": "unilateral", "friction": 0.0, "attachments": true,
+              "clamps": false, "bending": false},
+  "contact": {"stiffness_N_per_m": 5000.0},
+  "attachments": {"body_faces": "attachment_body_faces.txt", "stiffness_N_per_m": 3000.0},
+  "solver": {"method": "newton", "grad_tol": 1e-4}
+}
+)";
+}
+
+// The seeds: the pull-test examples, the small motion scene (WriteMotionScene), and each of
+// `body_scenes` exported by `kgd scene export` into `dir`. A scene with motion frames keeps its first
+// two, so that a case loads in well under a second.
 Result<std::vector<SeedScenes>> MakeSeeds(const Options& o, const std::string& dir) {
   std::vector<SeedScenes> seeds;
   const fs::path examples = fs::path(o.source) / "examples" / "pull_test";
@@ -178,6 +235,8 @@ Result<std::vector<SeedScenes>> MakeSeeds(const Options& o, const std::string& d
     if (e.path().extension() == ".json") pull.push_back(e.path().filename().string());
   std::sort(pull.begin(), pull.end());
   seeds.push_back(FolderSeeds("pull_test", examples, pull));
+  WriteMotionScene(fs::path(dir) / "seeds" / "motion");
+  seeds.push_back(FolderSeeds("motion", fs::path(dir) / "seeds" / "motion", {"scene.json"}));
   std::stringstream names(o.body_scenes);
   for (std::string name; std::getline(names, name, ',');) {
     if (name.empty()) continue;
@@ -214,7 +273,7 @@ void FuzzScene(const Options& o, const std::string& dir, const std::vector<SeedS
   for (int i = 0; i < o.cases; ++i) {
     std::mt19937_64 rng(o.seed * 1000003 + i);
     // Half the cases on the pull-test examples, half on the body scenes.
-    const SeedScenes& seed = seeds.size() == 1 || rng() % 2 ? seeds[0] : seeds[1 + rng() % (seeds.size() - 1)];
+    const SeedScenes& seed = rng() % 2 ? seeds[0] : seeds[1 + rng() % (seeds.size() - 1)];
     const std::string scene = Pick(seed.scenes, rng);
     // Mostly the scene file; sometimes a mesh or a list it names.
     const std::string victim = rng() % 5 < 3 ? scene : Pick(seed.files, rng);
@@ -266,7 +325,7 @@ void FuzzProto(const Options& o, const std::string& seed_file, const std::vector
     std::mt19937_64 rng(o.seed * 2000003 + i);
     const int kind = static_cast<int>(rng() % 4);
     // The pull test's spec as often as all the body scenes' together.
-    const size_t spec = seeds.size() == 1 || rng() % 2 ? 0 : 1 + rng() % (seeds.size() - 1);
+    const size_t spec = rng() % 2 ? 0 : 1 + rng() % (seeds.size() - 1);
     const std::string what = InChild(
         [&] {
           switch (kind) {
@@ -439,6 +498,15 @@ std::string JsonField(const std::string& json, const std::string& key) {
   return "";
 }
 
+// A multipart/form-data body of `parts` (name, filename, content).
+std::string Multipart(const std::vector<std::array<std::string, 3>>& parts, const std::string& boundary) {
+  std::string body;
+  for (const auto& [name, filename, content] : parts)
+    body += "--" + boundary + "\r\nContent-Disposition: form-data; name=\"" + name + "\"" + (filename.empty() ? "" : "; filename=\"" + filename + "\"") +
+            "\r\nContent-Type: application/octet-stream\r\n\r\n" + content + "\r\n";
+  return body + "--" + boundary + "--\r\n";
+}
+
 // The finished job: its id, its last iteration, its evaluation's frames and baselines.
 struct FinishedJob {
   std::string id;
@@ -447,7 +515,7 @@ struct FinishedJob {
 };
 
 // A server with tokens and a job finished by a kgd-worker, which is then stopped. "" or what failed.
-std::string StartWithFinishedJob(const Options& o, const std::string& dir, Server* s, FinishedJob* job) {
+std::string StartWithFinishedJob(const Options& o, const std::string& dir, const SeedScenes& motion, Server* s, FinishedJob* job) {
   std::ofstream(dir + "/tokens") << kAlice << " alice user\n" << kBob << " bob user\n" << kRoot << " root admin\n" << kWorker << " w worker\n";
   s->http_port = test_support::FreePort();
   s->grpc_port = test_support::FreePort();
@@ -466,10 +534,16 @@ std::string StartWithFinishedJob(const Options& o, const std::string& dir, Serve
   };
   if (!until(60, [&] { return Get(s->http_port, "/v1/scenes", kAlice, 5).status == 200; })) return "the server did not answer (" + dir + "/server.log)";
   s->worker = test_support::Process::Spawn({o.worker, "--server", grpc, "--name", "fuzz", "--token", kWorker}, dir + "/worker.log");
-  const std::string body = R"({"builtinScene": "sleeve_on_limb", "optimizer": {"budget": 0.5, "maxIterations": 2}, "label": "fuzz"})";
+  // The motion scene uploaded with its files: a job of two iterations, evaluated over two frames.
+  std::vector<std::array<std::string, 3>> parts = {{"scene", "scene.json", ReadBytes((motion.dir / "scene.json").string())},
+                                                   {"spec", "spec.json", R"({"optimizer": {"budget": 0.5, "maxIterations": 2}, "label": "fuzz"})"}};
+  for (const std::string& f : motion.files)
+    if (f != "scene.json") parts.push_back({f, f, ReadBytes((motion.dir / f).string())});
+  const std::string body = Multipart(parts, "kgdfuzz");
   const HttpAnswer created = Exchange(s->http_port,
                                       std::string("POST /v1/jobs HTTP/1.1\r\nHost: x\r\nConnection: close\r\nAuthorization: Bearer ") + kAlice +
-                                          "\r\nContent-Type: application/json\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body,
+                                          "\r\nContent-Type: multipart/form-data; boundary=kgdfuzz\r\nContent-Length: " + std::to_string(body.size()) +
+                                          "\r\n\r\n" + body,
                                       30);
   job->id = JsonField(created.body, "id");
   if (created.status != 200 || job->id.empty()) return "cannot create the job: " + std::to_string(created.status) + " " + created.body;
@@ -507,6 +581,8 @@ void CheckReach(int port, const FinishedJob& job, std::vector<Finding>* findings
       {j + "/iterations/0/positions.f32", kAlice, 200, ""},
       {j + "/iterations/-1/cut/report.json", kAlice, 200, "\"pieces\""},
       {j + "/evaluation", kAlice, 200, "\"frames\""},
+      {j + "/evaluation/frames/1/positions.f32", kAlice, 200, ""},
+      {j + "/evaluation/frames/2/body.f32", kAlice, 200, ""},
       {j + "/evaluation/baselines/line/design.u8", kAlice, 200, ""},
       {j + ":watch", kAlice, 200, "event: "},
       {j + "/iterations/-1/cut/patches.svg?sheetWidthMm=inf", kAlice, 400, "sheetWidthMm 'inf' is not a finite number"},
@@ -518,21 +594,13 @@ void CheckReach(int port, const FinishedJob& job, std::vector<Finding>* findings
       {j, "", 401, "UNAUTHENTICATED"},
   };
   for (const Expect& e : expects) {
-    const HttpAnswer a = Get(port, e.target, e.token, 60, 8192);
+    const HttpAnswer a = Get(port, e.target, e.token, 60);
     if (a.status != e.status || a.body.find(e.says) == std::string::npos)
       findings->push_back({"http", -1, "GET " + e.target + " as " + (e.token.empty() ? "no one" : e.token == kAlice ? "alice" : e.token == kBob ? "bob" : "the worker") + ": expected " +
                                            std::to_string(e.status) + " saying '" + e.says + "', got " + std::to_string(a.status) + " " + a.body.substr(0, 200)});
   }
 }
 
-// A multipart/form-data body of `parts` (name, filename, content).
-std::string Multipart(const std::vector<std::array<std::string, 3>>& parts, const std::string& boundary) {
-  std::string body;
-  for (const auto& [name, filename, content] : parts)
-    body += "--" + boundary + "\r\nContent-Disposition: form-data; name=\"" + name + "\"" + (filename.empty() ? "" : "; filename=\"" + filename + "\"") +
-            "\r\nContent-Type: application/octet-stream\r\n\r\n" + content + "\r\n";
-  return body + "--" + boundary + "--\r\n";
-}
 
 // A route of the finished job (or another id), with its parameters drawn.
 std::string Route(const FinishedJob& job, std::mt19937_64& rng) {
@@ -585,7 +653,7 @@ std::string Route(const FinishedJob& job, std::mt19937_64& rng) {
 void FuzzHttp(const Options& o, const std::string& dir, const std::vector<SeedScenes>& seeds, std::vector<Finding>* findings) {
   Server s;
   FinishedJob job;
-  if (const std::string error = StartWithFinishedJob(o, dir, &s, &job); !error.empty()) {
+  if (const std::string error = StartWithFinishedJob(o, dir, seeds[1] /* the motion scene */, &s, &job); !error.empty()) {
     findings->push_back({"http", -1, error});
     return;
   }
