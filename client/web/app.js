@@ -206,7 +206,13 @@ async function select(id) {
   $('scrub').max = 0;
   $('scrub').value = 0;
   renderDownloads();
-  state.watch = api.watch(id, {
+  // The server ends the stream of an ended job once it has sent every iteration; EventSource would
+  // reconnect to it every two seconds for as long as the page stays open.
+  const es = api.watch(id, {
+    onError: () => {
+      const job = state.job;
+      if (job && !['QUEUED', 'RUNNING'].includes(job.state) && state.metrics.filter(Boolean).length >= (job.iterations || 0)) es.close();
+    },
     onJob: (job) => {
       state.job = job;
       state.jobs.set(job.id, job);
@@ -224,6 +230,7 @@ async function select(id) {
       if ($('follow').checked && !state.useFrame && target().kind === 'iteration') { $('scrub').value = last; show(); }
     },
   });
+  state.watch = es;
 }
 
 async function ensureMeshes(id) {

@@ -180,6 +180,11 @@ try {
   const pageCounts = await page.evaluate(() => ({ scrubMax: Number(document.getElementById('scrub').max), points: window.kgd.charts.ratio.data[0].length }));
   check(received === stored.iterations && pageCounts.scrubMax === last && pageCounts.points === stored.iterations,
     `the page has the server's ${stored.iterations} iterations (received ${received}, scrubber up to ${pageCounts.scrubMax}, ${pageCounts.points} chart points)`);
+  // The server ends an ended job's stream after its last iteration; the page then stops watching
+  // (EventSource would otherwise reconnect every two seconds).
+  const watchClosed = await until('the page to stop watching the ended job', () => page.evaluate(() => window.kgd.state.watch?.readyState === EventSource.CLOSED), 10000)
+    .then(() => true, () => false);
+  check(watchClosed, `the page closes the ended job's event stream (readyState ${await page.evaluate(() => window.kgd.state.watch?.readyState)})`);
   const scrubTo = async (n) => {
     await page.evaluate((v) => { const s = document.getElementById('scrub'); s.value = v; s.dispatchEvent(new Event('input')); }, n);
     await until(`iteration ${n} on screen`, () => page.evaluate((v) => window.kgd.state.target?.kind === 'iteration' && window.kgd.state.shown === v && !window.kgd.state.loading && !window.kgd.state.pending, n));
