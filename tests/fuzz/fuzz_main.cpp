@@ -74,7 +74,7 @@ void WriteBytes(const std::string& path, const std::string& bytes) { std::ofstre
 
 const std::vector<std::string>& Tokens() {
   static const std::vector<std::string> tokens = {"-1", "0", "1e308", "-1e308", "1e-320", "nan", "NaN", "inf", "\"\"", "[]", "{}", "null",
-                                                  "999999999999", "-2147483649", "true", "\"\\u0000\"", "[[[[[[[[[[[[[[[[",
+                                                  "999999999999", "-2147483649", "2147483647", "65536", "true", "\"\\u0000\"", "[[[[[[[[[[[[[[[[",
                                                   "{\"a\":{\"a\":{\"a\":{", ",", ":", "\"", "\n", "f 1 2 99999999\n", "v nan 0 0\n"};
   return tokens;
 }
@@ -150,6 +150,7 @@ std::string InChild(const std::function<bool()>& body, int timeout_s) {
 struct Options {
   std::string source, kgd, server, worker;
   int cases = 500;
+  int scene_cases = -1;  // -1: `cases`
   uint64_t seed = 1;
   std::string targets = "scene,proto,design,http";
   std::string body_scenes = "sleeve_on_limb,arm_flexion";
@@ -270,7 +271,7 @@ void LayOut(const SeedScenes& seed, const fs::path& work, const std::string& vic
 }
 
 void FuzzScene(const Options& o, const std::string& dir, const std::vector<SeedScenes>& seeds, std::vector<Finding>* findings) {
-  for (int i = 0; i < o.cases; ++i) {
+  for (int i = 0; i < o.scene_cases; ++i) {
     std::mt19937_64 rng(o.seed * 1000003 + i);
     // Half the cases on the pull-test examples, half on the body scenes.
     const SeedScenes& seed = rng() % 2 ? seeds[0] : seeds[1 + rng() % (seeds.size() - 1)];
@@ -882,6 +883,7 @@ int main(int argc, char** argv) {
   app.add_option("--server", o.server, "The kgd-server binary")->required();
   app.add_option("--worker", o.worker, "The kgd-worker binary (runs the HTTP target's finished job)")->required();
   app.add_option("--cases", o.cases, "Cases per target")->capture_default_str();
+  app.add_option("--scene-cases", o.scene_cases, "Cases of the scene target (the cheapest; default: --cases)");
   app.add_option("--seed", o.seed, "Seed of the mutations")->capture_default_str();
   app.add_option("--targets", o.targets, "Comma-separated: scene, proto, design, http")->capture_default_str();
   app.add_option("--body-scenes", o.body_scenes, "Built-in scenes with a body whose exported files seed the scene, proto and http targets")
@@ -905,8 +907,10 @@ int main(int argc, char** argv) {
   std::printf("\n");
   std::vector<Finding> findings;
   auto wants = [&](const std::string& t) { return ("," + o.targets + ",").find("," + t + ",") != std::string::npos; };
+  if (o.scene_cases < 0) o.scene_cases = o.cases;
   auto report = [&](const char* target) {
-    std::printf("%-7s %d cases, %.1f s: %d accepted, %d refused with an error; %zu findings so far\n", target, o.cases,
+    std::printf("%-7s %d cases, %.1f s: %d accepted, %d refused with an error; %zu findings so far\n", target,
+                std::string(target) == "scene" ? o.scene_cases : o.cases,
                 std::chrono::duration<double>(Clock::now() - t0).count(), accepted, refused, findings.size());
     accepted = refused = 0;
     std::fflush(stdout);
