@@ -102,6 +102,22 @@ const bluePixels = (page) => page.evaluate(() => {
   return n / (c.width * c.height);
 });
 
+// Starts `kgd serve`; a failure to start (e.g. the binary being relinked) is a failed check, not a crash
+// that would leave the other server running.
+function startServe(args) {
+  const child = spawn(kgd, ['serve', ...args, '--quiet'], { stdio: ['ignore', 'pipe', 'inherit'] });
+  child.out = '';
+  child.stdout.on('data', (d) => { child.out += d; });
+  child.on('error', (e) => { child.out += `(${e.message})`; });
+  return child;
+}
+async function stopServe(child) {
+  if (child.exitCode !== null || child.signalCode !== null || child.pid === undefined) return;
+  const exited = new Promise((r) => child.on('exit', r));
+  child.kill('SIGTERM');
+  await exited;
+}
+
 function freePort() {
   return new Promise((resolve) => { const s = net.createServer(); s.listen(0, '127.0.0.1', () => { const p = s.address().port; s.close(() => resolve(p)); }); });
 }
@@ -109,13 +125,11 @@ function freePort() {
 fs.mkdirSync(artifacts, { recursive: true });
 const data = fs.mkdtempSync(path.join(os.tmpdir(), 'kgd_web_test_'));
 const [grpcPort, httpPort] = [await freePort(), await freePort()];
-const serve = spawn(kgd, ['serve', '--data', data, '--listen', `127.0.0.1:${grpcPort}`, '--http', `127.0.0.1:${httpPort}`, '--quiet'], { stdio: ['ignore', 'pipe', 'inherit'] });
-let serveOut = '';
-serve.stdout.on('data', (d) => { serveOut += d; });
+const serve = startServe(['--data', data, '--listen', `127.0.0.1:${grpcPort}`, '--http', `127.0.0.1:${httpPort}`]);
 const base = `http://127.0.0.1:${httpPort}/`;
 let browser;
 try {
-  await until('kgd serve to start', () => serveOut.includes('web page and HTTP API'), 30000);
+  await until('kgd serve to start', () => serve.out.includes('web page and HTTP API'), 30000);
   browser = await chromium.launch({
     executablePath: chromiumPath,
     args: ['--headless=new', '--no-sandbox', '--disable-gpu', '--enable-unsafe-swiftshader', '--use-angle=swiftshader', '--disable-quic', '--no-first-run',
@@ -289,12 +303,10 @@ try {
   const token = 'page-test-token-0123456789abcdef';
   fs.writeFileSync(path.join(data, 'tokens.txt'), `${token} carol user\n`);
   const [grpc2, http2] = [await freePort(), await freePort()];
-  const secured = spawn(kgd, ['serve', '--data', path.join(data, 'secured'), '--listen', `127.0.0.1:${grpc2}`, '--http', `127.0.0.1:${http2}`,
-    '--auth-tokens', path.join(data, 'tokens.txt'), '--quiet'], { stdio: ['ignore', 'pipe', 'inherit'] });
-  let securedOut = '';
-  secured.stdout.on('data', (d) => { securedOut += d; });
+  const secured = startServe(['--data', path.join(data, 'secured'), '--listen', `127.0.0.1:${grpc2}`, '--http', `127.0.0.1:${http2}`,
+    '--auth-tokens', path.join(data, 'tokens.txt')]);
   try {
-    await until('kgd serve with tokens to start', () => securedOut.includes('web page and HTTP API'), 30000);
+    await until('kgd serve with tokens to start', () => secured.out.includes('web page and HTTP API'), 30000);
     const plain = await fetch(`http://127.0.0.1:${http2}/v1/jobs`);
     check(plain.status === 401, `without a token the API answers 401 (${plain.status})`);
     const tokenContext = await browser.newContext({ viewport: { width: 1280, height: 800 } });
@@ -325,8 +337,7 @@ try {
       `a job submitted and followed live with a token through the event stream (header for the API, cookie for the stream; watch responses: ${watches.join(', ') || 'none'}; iterations 0 and 1 ${streamed ? (same ? 'as the API has them' : 'unlike the API') : 'never streamed'})`);
     await tokenContext.close();
   } finally {
-    secured.kill('SIGTERM');
-    await new Promise((r) => secured.on('exit', r));
+    await stopServe(secured);
   }
 } catch (e) {
   console.log(`FAIL ${e.message}`);
@@ -334,8 +345,7 @@ try {
   for (const p of browser?.contexts().flatMap((c) => c.pages()) || []) await p.screenshot({ path: path.join(artifacts, 'failure.png') }).catch(() => {});
 } finally {
   if (browser) await browser.close();
-  serve.kill('SIGTERM');
-  await new Promise((r) => serve.on('exit', r));
+  await stopServe(serve);
   fs.rmSync(data, { recursive: true, force: true });
 }
 console.log(failures ? `${failures} check(s) failed; screenshots in ${artifacts}` : `all checks passed; screenshots in ${artifacts}`);
