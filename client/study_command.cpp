@@ -209,22 +209,15 @@ int RunStudy(const StudyOptions& o) {
   st.o = o;
   // Cold: a first build into an empty scene cache (the study's own, under --out); warm: the same scene
   // again, as a new job on a warm machine finds it in the cache.
-  const std::string user_cache = std::getenv("KGD_CACHE_DIR") ? std::getenv("KGD_CACHE_DIR") : "";
   const fs::path study_cache = fs::path(o.out) / "scene-cache";
   fs::remove_all(study_cache, ec);
-  setenv("KGD_CACHE_DIR", study_cache.c_str(), 1);
   auto t0 = Clock::now();
-  Result<SceneSpec> scene = ResolveScene(o.scene, {});
+  Result<SceneSpec> scene = ResolveScene(o.scene, {}, study_cache.string());
   st.setup_cold_s = Since(t0);
   t0 = Clock::now();
-  if (scene.ok()) (void)ResolveScene(o.scene, {});
+  if (scene.ok()) (void)ResolveScene(o.scene, {}, study_cache.string());
   st.setup_warm_s = Since(t0);
   fs::remove_all(study_cache, ec);
-  if (user_cache.empty()) {
-    unsetenv("KGD_CACHE_DIR");
-  } else {
-    setenv("KGD_CACHE_DIR", user_cache.c_str(), 1);
-  }
   if (!scene.ok()) {
     std::cerr << "kgd study accuracy: " << scene.message() << "\n";
     return 2;

@@ -234,13 +234,13 @@ TEST(BuiltinScenes, SimulateNamesABodyThatLosesVolume) {
 TEST(BuiltinScenes, TheSceneCacheGivesTheSameSceneAndIgnoresADamagedEntry) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "kgd_scene_cache_test";
   std::filesystem::remove_all(dir);
-  setenv("KGD_CACHE_DIR", dir.c_str(), 1);
+  const std::string cache = dir.string();
   Result<SceneSpec> built = ::kgd::BuiltinScene("knee_extension");
   ASSERT_TRUE(built.ok()) << built.message();
-  EXPECT_FALSE(LoadCachedScene("knee_extension", BodyMeasurements()).has_value());
-  Result<SceneSpec> first = ResolveBuiltinScene("knee_extension", {});  // a miss: built and stored
+  EXPECT_FALSE(LoadCachedScene(cache, "knee_extension", BodyMeasurements()).has_value());
+  Result<SceneSpec> first = ResolveBuiltinScene("knee_extension", {}, cache);  // a miss: built and stored
   ASSERT_TRUE(first.ok());
-  std::optional<SceneSpec> cached = LoadCachedScene("knee_extension", BodyMeasurements());
+  std::optional<SceneSpec> cached = LoadCachedScene(cache, "knee_extension", BodyMeasurements());
   ASSERT_TRUE(cached.has_value());
   auto expect_same = [](const SceneSpec& a, const SceneSpec& b) {
     EXPECT_EQ(a.name, b.name);
@@ -262,24 +262,24 @@ TEST(BuiltinScenes, TheSceneCacheGivesTheSameSceneAndIgnoresADamagedEntry) {
     }
   };
   expect_same(*built, *cached);
-  Result<SceneSpec> second = ResolveBuiltinScene("knee_extension", {});  // a hit
+  Result<SceneSpec> second = ResolveBuiltinScene("knee_extension", {}, cache);  // a hit
   ASSERT_TRUE(second.ok());
   expect_same(*built, *second);
   // Other measurements, another entry.
   BodyMeasurements taller;
   taller.height_m = 1.85;
-  EXPECT_FALSE(LoadCachedScene("knee_extension", taller).has_value());
+  EXPECT_FALSE(LoadCachedScene(cache, "knee_extension", taller).has_value());
   // A damaged file: the entry is not used.
   std::filesystem::path obj;
   for (const auto& e : std::filesystem::recursive_directory_iterator(dir))
     if (e.path().filename() == "body_rest.obj") obj = e.path();
   ASSERT_FALSE(obj.empty());
   { std::ofstream(obj, std::ios::app) << "v 0 0 0\n"; }
-  EXPECT_FALSE(LoadCachedScene("knee_extension", BodyMeasurements()).has_value());
-  Result<SceneSpec> rebuilt = ResolveBuiltinScene("knee_extension", {});  // built and stored again
+  EXPECT_FALSE(LoadCachedScene(cache, "knee_extension", BodyMeasurements()).has_value());
+  Result<SceneSpec> rebuilt = ResolveBuiltinScene("knee_extension", {}, cache);  // built and stored again
   ASSERT_TRUE(rebuilt.ok());
   expect_same(*built, *rebuilt);
-  EXPECT_TRUE(LoadCachedScene("knee_extension", BodyMeasurements()).has_value());
+  EXPECT_TRUE(LoadCachedScene(cache, "knee_extension", BodyMeasurements()).has_value());
   // Entries of older builds: beyond six per scene, the least recently used go when another is stored.
   const std::filesystem::path scenes = dir / "scenes";
   for (int k = 0; k < 7; ++k) {
@@ -287,19 +287,22 @@ TEST(BuiltinScenes, TheSceneCacheGivesTheSameSceneAndIgnoresADamagedEntry) {
     std::filesystem::create_directories(old);
     std::filesystem::last_write_time(old, std::filesystem::file_time_type::clock::now() - std::chrono::hours(100 - k));
   }
-  ASSERT_TRUE(StoreCachedScene("knee_extension", taller, *built).ok());
+  ASSERT_TRUE(StoreCachedScene(cache, "knee_extension", taller, *built).ok());
   int entries = 0;
   for (const auto& e : std::filesystem::directory_iterator(scenes)) entries += e.path().filename().string().rfind("knee_extension-", 0) == 0;
   EXPECT_EQ(entries, 6);
   for (int k = 0; k < 3; ++k) EXPECT_FALSE(std::filesystem::exists(scenes / ("knee_extension-old" + std::to_string(k)))) << k;
   EXPECT_TRUE(std::filesystem::exists(scenes / "knee_extension-old6"));
-  EXPECT_TRUE(LoadCachedScene("knee_extension", BodyMeasurements()).has_value());
-  EXPECT_TRUE(LoadCachedScene("knee_extension", taller).has_value());
-  // Off.
+  EXPECT_TRUE(LoadCachedScene(cache, "knee_extension", BodyMeasurements()).has_value());
+  EXPECT_TRUE(LoadCachedScene(cache, "knee_extension", taller).has_value());
+  // Off: no folder; KGD_CACHE_DIR=off names none.
+  EXPECT_FALSE(LoadCachedScene("", "knee_extension", BodyMeasurements()).has_value());
+  const char* user = std::getenv("KGD_CACHE_DIR");
+  const std::string saved = user ? user : "";
   setenv("KGD_CACHE_DIR", "off", 1);
   EXPECT_EQ(SceneCacheDir(), "");
-  EXPECT_FALSE(LoadCachedScene("knee_extension", BodyMeasurements()).has_value());
-  unsetenv("KGD_CACHE_DIR");
+  if (user) setenv("KGD_CACHE_DIR", saved.c_str(), 1);
+  else unsetenv("KGD_CACHE_DIR");
   std::filesystem::remove_all(dir);
 }
 

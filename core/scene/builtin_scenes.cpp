@@ -184,7 +184,8 @@ Result<SceneSpec> BuiltinScene(const std::string& name) {
   return Status::Error("unknown built-in scene '" + name + "' (built-in scenes: " + list + ")");
 }
 
-Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items) {
+Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items,
+                               const std::optional<std::string>& cache_dir) {
   Result<std::optional<BodyMeasurements>> body = ParseBodyMeasurements(body_items);
   if (!body.ok()) return body.status();
   if (std::filesystem::exists(arg)) {
@@ -193,10 +194,11 @@ Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::st
   }
   if (arg.find('/') != std::string::npos || (arg.size() > 5 && arg.substr(arg.size() - 5) == ".json"))
     return Status::Error(arg + ": no such scene file");
-  return ResolveBuiltinScene(arg, body_items);
+  return ResolveBuiltinScene(arg, body_items, cache_dir);
 }
 
-Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector<std::string>& body_items) {
+Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector<std::string>& body_items,
+                                      const std::optional<std::string>& cache_dir) {
   Result<std::optional<BodyMeasurements>> body = ParseBodyMeasurements(body_items);
   if (!body.ok()) return body.status();
   // The paper's scenes are built on the parametric body (seconds); on a warm machine they come from the
@@ -204,10 +206,11 @@ Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector
   bool parametric = false;
   for (const PaperMotion& m : PaperMotions()) parametric = parametric || m.name == name;
   const BodyMeasurements measurements = *body ? **body : BodyMeasurements();
+  const std::string cache = cache_dir ? *cache_dir : SceneCacheDir();
   if (parametric)
-    if (std::optional<SceneSpec> cached = LoadCachedScene(name, measurements)) return std::move(*cached);
+    if (std::optional<SceneSpec> cached = LoadCachedScene(cache, name, measurements)) return std::move(*cached);
   Result<SceneSpec> built = *body ? BuiltinScene(name, **body) : BuiltinScene(name);
-  if (parametric && built.ok()) (void)StoreCachedScene(name, measurements, *built);
+  if (parametric && built.ok()) (void)StoreCachedScene(cache, name, measurements, *built);
   return built;
 }
 

@@ -3,6 +3,7 @@
 // argument (a file or a built-in name) becomes a scene.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,11 +14,14 @@
 namespace kgd {
 
 // A scene argument: a scene file if it exists, else the name of a built-in scene (on a parametric body
-// made to the `name=value` measurements `body_items`, when given).
-Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items = {});
+// made to the `name=value` measurements `body_items`, when given). The paper's scenes are kept in the
+// scene cache (core/scene/scene_cache.h) in `cache_dir`: by default the user's (SceneCacheDir), "" off.
+Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items = {},
+                               const std::optional<std::string>& cache_dir = std::nullopt);
 
 // A built-in scene by name only (`kgd scene export`): files and folders of the same name are ignored.
-Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector<std::string>& body_items = {});
+Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector<std::string>& body_items = {},
+                                      const std::optional<std::string>& cache_dir = std::nullopt);
 
 // Scenes built into the program (no files needed).
 std::vector<std::string> BuiltinSceneNames();

@@ -49,8 +49,7 @@ std::string Hex(uint64_t v) {
 }
 
 // The folder of one scene: name, measurements and the program's identity.
-fs::path EntryDir(const std::string& name, const BodyMeasurements& m) {
-  const std::string dir = SceneCacheDir();
+fs::path EntryDir(const std::string& dir, const std::string& name, const BodyMeasurements& m) {
   if (dir.empty()) return {};
   struct stat st {};
   uint64_t key = Fnv(&kCacheFormat, sizeof kCacheFormat);
@@ -87,8 +86,8 @@ std::string SceneCacheDir() {
   return "";
 }
 
-std::optional<SceneSpec> LoadCachedScene(const std::string& name, const BodyMeasurements& measurements) {
-  const fs::path dir = EntryDir(name, measurements);
+std::optional<SceneSpec> LoadCachedScene(const std::string& cache_dir, const std::string& name, const BodyMeasurements& measurements) {
+  const fs::path dir = EntryDir(cache_dir, name, measurements);
   if (dir.empty()) return std::nullopt;
   std::ifstream manifest(dir / "manifest.txt");
   if (!manifest) return std::nullopt;
@@ -105,8 +104,9 @@ std::optional<SceneSpec> LoadCachedScene(const std::string& name, const BodyMeas
   return std::move(s).value();
 }
 
-Status StoreCachedScene(const std::string& name, const BodyMeasurements& measurements, const SceneSpec& scene) {
-  const fs::path dir = EntryDir(name, measurements);
+Status StoreCachedScene(const std::string& cache_dir, const std::string& name, const BodyMeasurements& measurements,
+                        const SceneSpec& scene) {
+  const fs::path dir = EntryDir(cache_dir, name, measurements);
   if (dir.empty()) return Status::Error("scene cache: off");
   std::error_code ec;
   fs::create_directories(dir.parent_path(), ec);

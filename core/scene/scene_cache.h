@@ -20,14 +20,17 @@
 
 namespace kgd {
 
-// The cache folder, or empty when the cache is off or no folder can be named.
+// The user's cache folder from the environment (above), or empty when the cache is off or no folder
+// can be named.
 std::string SceneCacheDir();
 
-// The cached scene `name` on a body of `measurements`, when present and intact.
-std::optional<SceneSpec> LoadCachedScene(const std::string& name, const BodyMeasurements& measurements);
+// The cached scene `name` on a body of `measurements` in the cache folder `cache_dir` (empty: off),
+// when present and intact.
+std::optional<SceneSpec> LoadCachedScene(const std::string& cache_dir, const std::string& name, const BodyMeasurements& measurements);
 
-// Writes `scene` to the cache (atomically: a temporary folder renamed into place). Errors are returned
-// for tests; callers may ignore them.
-Status StoreCachedScene(const std::string& name, const BodyMeasurements& measurements, const SceneSpec& scene);
+// Writes `scene` to the cache folder `cache_dir` (atomically: a temporary folder renamed into place).
+// Errors are returned for tests; callers may ignore them.
+Status StoreCachedScene(const std::string& cache_dir, const std::string& name, const BodyMeasurements& measurements,
+                        const SceneSpec& scene);
 
 }  // namespace kgd
