@@ -46,7 +46,7 @@ test-sanitize:
 # and records, design files, the HTTP door with tokens and a finished job), built with the sanitizers
 # in $(SANITIZE_BUILD) (only the programs it runs): FUZZ_CASES per target from FUZZ_SEED, every case
 # checked for crash, hang, sanitizer report (UBSan halts on its first) or internal error. `make test`
-# runs 300 cases per target of it (the test fuzz_smoke).
+# runs 300 cases per target of it, 1000 of the scene target (the test fuzz_smoke).
 FUZZ_CASES ?= 2000
 FUZZ_SEED ?= 1
 fuzz: setup
