@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "core/beso/design_loop.h"
 #include "core/mesh/mesh_io.h"
@@ -17,6 +18,7 @@
 #include "core/scene/paper_scenes.h"
 #include "core/scene/scene_file.h"
 #include "core/scene/simulate.h"
+#include "core/sim/garment_system.h"
 
 namespace kgd {
 namespace {
@@ -63,9 +65,14 @@ PaperMotion Motion(const std::string& name) {
 
 // Deep creases: the elbow at 150 degrees and the knee at 160 fold the sleeve onto itself inside the
 // joint, where the skin of the body interpenetrates. The fold barrier keeps every triangle the right way
-// out. The fully reinforced arm sleeve reaches equilibrium within the default 200 Newton iterations; the
-// knee sleeve needs about 800: with the default limit it stops with a typed failure that says so (here),
-// and with a limit of 1000 it converges (StabilityLong.TheKneeAt160DegreesConvergesGivenTheIterations).
+// out; the contact keeps the cloth out of the skin but for its penalty depth, load / 2k (docs/MODEL.md):
+// 0.3 mm at the elbow, 0.9 mm at the knee where the crease presses hardest at the default 5000 N/m (a
+// contact 20 times softer lets both sink 1.8 mm). The fully reinforced arm sleeve reaches equilibrium
+// within the default 200 Newton iterations; the knee sleeve does not (yet) and stops at the iteration
+// limit, which it names (StabilityLong.TheKneeAt160DegreesConvergesGivenTheIterations asks for
+// convergence within 1000).
+constexpr double kCreaseMaxDepth_m = 1.5e-3;
+
 SceneSpec DeepCrease(const char* motion, const char* joint, double degrees) {
   Result<const ParametricBody*> body = DefaultParametricBody();
   EXPECT_TRUE(body.ok()) << body.message();
@@ -88,17 +95,35 @@ TEST(Stability, DeepCreasesAtTheElbowAndKneeReachEquilibriumOrSayWhyNot) {
     ASSERT_GT(scene.garment.faces.rows(), 0);
     const SimulationResult r = ExpectStableEquilibrium(scene);
     EXPECT_GT(r.solve.energy_J, 0.0);
+    EXPECT_GE(r.min_phi_m, -kCreaseMaxDepth_m);
   }
   {
+    // Either outcome passes -- equilibrium, or the iteration limit named -- as long as what the solve
+    // leaves is sound: every accepted step lowered a finite energy, nothing is non-finite or inverted,
+    // no vertex is deeper in the skin than the penalty allows.
     SCOPED_TRACE("knee_flexion at 160 degrees");
-    const SceneSpec scene = DeepCrease("knee_flexion", "r_knee_flex", 160);
+    SceneSpec scene = DeepCrease("knee_flexion", "r_knee_flex", 160);
     ASSERT_GT(scene.garment.faces.rows(), 0);
-    Result<SimulationResult> limited = SimulateScene(scene);
-    ASSERT_TRUE(limited.ok()) << limited.message();
-    ExpectFinite(*limited);
-    EXPECT_EQ(limited->solve.status, SolveStatus::kIterationLimit);
-    EXPECT_NE(limited->solve.message.find("no convergence in 200 Newton iterations"), std::string::npos) << limited->solve.message;
-    EXPECT_EQ(limited->inverted_faces, 0);
+    std::vector<double> energy_J;
+    scene.solver.on_iteration = [&](const IterationInfo& i) { energy_J.push_back(i.energy_J); };
+    Result<SimulationResult> r = SimulateScene(scene);
+    ASSERT_TRUE(r.ok()) << r.message();
+    ExpectFinite(*r);
+    EXPECT_EQ(r->inverted_faces, 0);
+    EXPECT_GE(r->min_phi_m, -kCreaseMaxDepth_m);
+    ASSERT_FALSE(energy_J.empty());
+    for (size_t i = 0; i < energy_J.size(); ++i) {
+      ASSERT_TRUE(std::isfinite(energy_J[i])) << "step " << i + 1;
+      if (i > 0) EXPECT_LE(energy_J[i], energy_J[i - 1]) << "step " << i + 1 << " raised the energy";
+    }
+    EXPECT_EQ(r->solve.energy_J, energy_J.back());
+    if (r->solve.converged()) {
+      EXPECT_LE(r->solve.grad_norm_N, r->solve.tolerance_N);
+    } else {
+      EXPECT_EQ(r->solve.status, SolveStatus::kIterationLimit) << ToString(r->solve.status) << ": " << r->solve.message;
+      EXPECT_EQ(r->solve.iterations, 200);
+      EXPECT_FALSE(r->solve.message.empty());
+    }
   }
 }
 
@@ -185,32 +210,61 @@ TEST(Stability, StiffnessContrastAndLargeStrainReachEquilibrium) {
   EXPECT_GT(big.clamp_forces.back().force_N.norm(), 5 * small.clamp_forces.back().force_N.norm());
 }
 
-// Contact stiffness from 1e2 to 1e8 N/m: soft contact lets the sleeve sink (but it stays at
-// equilibrium), stiff contact keeps it within micrometres of the skin.
+// Contact stiffness from 1e2 to 1e8 N/m, all at equilibrium. The unilateral penalty E = k Phi^2
+// (docs/MODEL.md) holds a vertex pressed with load f at depth f / 2k. Once the sinking is small beside
+// the sleeve's tightness (from 1e4 N/m: 27 um) the loads stay put and k x depth with them, so each
+// hundredfold stiffer contact sinks a hundredfold less: 0.27 um at 1e6, 2.7 nm at 1e8. The soft 1e2
+// N/m lets the sleeve sink 1.7 mm, which slackens it (less load): 1e4 sinks less than a twentieth of it.
 TEST(Stability, ContactStiffnessOverSixDecades) {
-  double last_depth = -1;
-  for (double k : {1e2, 1e4, 1e6, 1e8}) {
+  const std::vector<double> stiffness = {1e2, 1e4, 1e6, 1e8};
+  std::vector<double> depth;  // deepest penetration (m)
+  for (double k : stiffness) {
     SCOPED_TRACE("contact stiffness " + std::to_string(k));
     SceneSpec s = SmallSleeve();
     s.contact_stiffness_N_per_m = k;
     const SimulationResult r = ExpectStableEquilibrium(s);
-    const double depth = -r.min_phi_m;  // deepest penetration (m)
-    if (last_depth >= 0) {
-      EXPECT_LT(depth, last_depth + 1e-9) << "stiffer contact must not sink deeper";
-    }
-    last_depth = depth;
+    depth.push_back(-r.min_phi_m);
+    EXPECT_GT(depth.back(), 0) << "the tight sleeve presses on the skin";
   }
-  EXPECT_LT(last_depth, 1e-4);
+  ASSERT_EQ(depth.size(), stiffness.size());
+  std::printf("deepest penetration: %.3g m at 1e2 N/m, %.3g at 1e4, %.3g at 1e6, %.3g at 1e8\n", depth[0], depth[1], depth[2], depth[3]);
+  EXPECT_LT(depth[1], 0.05 * depth[0]);
+  for (size_t i = 2; i < depth.size(); ++i)
+    EXPECT_NEAR(stiffness[i] * depth[i] / (stiffness[1] * depth[1]), 1.0, 0.05) << "k x depth at " << stiffness[i] << " N/m";
+  EXPECT_LT(depth[2], 1e-6) << "within a micrometre at 1e6 N/m";
+  EXPECT_LT(depth[3], 1e-8) << "within 10 nm at 1e8 N/m";
 }
 
-// A garment started 5 mm inside the body is pushed out by the contact and ends on the skin.
+// A garment started 5 mm inside the body is pushed out by the contact and ends on the skin: no vertex
+// deeper than the contact's tolerance, and most of them within it of the skin (pressing on it). The
+// sleeve's attachment bands hold it where it started, 5 mm in, so it presses harder than one put on
+// from outside (47 N in all against 19 N): 0.1 mm deep at the default 5000 N/m (the contact scenes'
+// stated tolerance is 0.2 mm), 0.5 um at 1e6 N/m (tolerance 5 um).
 TEST(Stability, AGarmentStartedInsideTheBodyEndsOnTheSkin) {
-  SceneSpec s = SmallSleeve();
-  const Positions normals = AreaWeightedVertexNormals(s.initial, s.garment.faces);
-  // The sleeve's normals point out of the limb (the body field's outside): move 5 mm against them.
-  s.initial -= 5e-3 * normals;
-  const SimulationResult r = ExpectStableEquilibrium(s);
-  EXPECT_GT(r.min_phi_m, -1e-3);
+  struct Case {
+    double stiffness_N_per_m, tolerance_m;
+  };
+  for (const Case c : {Case{kDefaultContactStiffness, 0.2e-3}, Case{1e6, 5e-6}}) {
+    SCOPED_TRACE("contact stiffness " + std::to_string(c.stiffness_N_per_m));
+    SceneSpec s = SmallSleeve();
+    s.contact_stiffness_N_per_m = c.stiffness_N_per_m;
+    const Positions normals = AreaWeightedVertexNormals(s.initial, s.garment.faces);
+    // The sleeve's normals point out of the limb (the body field's outside): move 5 mm against them.
+    s.initial -= 5e-3 * normals;
+    const SimulationResult r = ExpectStableEquilibrium(s);
+    Result<GarmentModel> model = BuildGarmentModel(s);
+    ASSERT_TRUE(model.ok()) << model.message();
+    GarmentSystem sys(std::move(model).value(), s.initial);
+    const Eigen::VectorXd start = sys.VertexPhi(s.initial), end = sys.VertexPhi(r.positions);
+    EXPECT_LT(start.maxCoeff(), -4e-3) << "every vertex starts inside";
+    ASSERT_TRUE(end.allFinite()) << "a vertex left the body field's support";
+    const Eigen::Index touching = (end.array().abs() <= c.tolerance_m).count();
+    std::printf("started inside, k %g N/m: deepest %.3g m, %ld of %ld vertices within %.3g m of the skin\n", c.stiffness_N_per_m, -end.minCoeff(),
+                static_cast<long>(touching), static_cast<long>(end.size()), c.tolerance_m);
+    EXPECT_GE(end.minCoeff(), -c.tolerance_m);
+    EXPECT_GT(touching, 3 * end.size() / 4);
+    EXPECT_GT(r.solve.energies["contact"], 0.0) << "the skin pushes back";
+  }
 }
 
 // A loose sleeve, slack everywhere: the membrane has no stiffness at all (zero-stiffness modes), the
@@ -301,7 +355,8 @@ TEST(StabilityLong, AHundredThousandVertexGarment) {
               r.solve.iterations, r.solve.seconds, usage.ru_maxrss / 1024.0);
 }
 
-// Long: the knee at 160 degrees converges given 1,000 Newton iterations (about 800 taken).
+// Long: the knee at 160 degrees converges given 1,000 Newton iterations. (At present it does not: it ends
+// at the limit with a residual of about 1e9 N, so this test fails; see the deep-crease case above.)
 TEST(StabilityLong, TheKneeAt160DegreesConvergesGivenTheIterations) {
   SceneSpec scene = DeepCrease("knee_flexion", "r_knee_flex", 160);
   ASSERT_GT(scene.garment.faces.rows(), 0);
