@@ -8,6 +8,7 @@
 
 #include "core/sim/finite_difference_check.h"
 #include "core/sim/garment_system.h"
+#include "core/sim/term_test_support.h"
 
 namespace kgd {
 namespace {
@@ -23,22 +24,14 @@ Attachments TwoFaces() {
 }
 
 // The garment system's attachment term (MakeAttachmentTerm) on a model with ten faces, `a` attached.
-struct SystemTerm {
-  GarmentModel model;
-  std::vector<MembraneElement> elements;
-  Lame lame[2];
-  double thickness[2] = {0, 0};
-  std::vector<Eigen::Vector3d> fold_reference;
-  std::vector<NeighborCache> caches;
-  std::vector<FrictionVertex> friction;
-  Hinges hinges;
+struct SystemTerm : testing::TermContextStorage {
   std::unique_ptr<EnergyTerm> term;
 
   explicit SystemTerm(const Attachments& a) {
     model.faces.resize(10, 3);
     model.effects.attachments = true;
     model.attachments = a;
-    term = MakeAttachmentTerm(TermContext{model, elements, lame, thickness, fold_reference, caches, friction, hinges});
+    term = MakeAttachmentTerm(Context());
   }
   // Face f as a term on its three vertices' coordinates: the energy, gradient and Hessian the system
   // assembles.

@@ -8,6 +8,7 @@
 #include <Eigen/Eigenvalues>
 #include "core/sim/finite_difference_check.h"
 #include "core/sim/garment_system.h"
+#include "core/sim/term_test_support.h"
 
 namespace kgd {
 namespace {
@@ -17,22 +18,15 @@ FrictionVertex Vertex() {
 }
 
 // The garment system's friction term (MakeFrictionTerm) on a model of one vertex with lagged data `v`.
-struct SystemTerm {
-  GarmentModel model;
-  std::vector<MembraneElement> elements;
-  Lame lame[2];
-  double thickness[2] = {0, 0};
-  std::vector<Eigen::Vector3d> fold_reference;
-  std::vector<NeighborCache> caches;
-  std::vector<FrictionVertex> friction;
-  Hinges hinges;
+struct SystemTerm : testing::TermContextStorage {
   std::unique_ptr<EnergyTerm> term;
 
-  SystemTerm(const FrictionVertex& v, double eps) : friction{v} {
+  SystemTerm(const FrictionVertex& v, double eps) {
+    friction = {v};
     model.effects.contact = ContactModel::kUnilateral;
     model.effects.friction = 0.5;
     model.friction_slip_m = eps;
-    term = MakeFrictionTerm(TermContext{model, elements, lame, thickness, fold_reference, caches, friction, hinges});
+    term = MakeFrictionTerm(Context());
   }
   // The vertex as a term on its coordinates: the energy, gradient and Hessian the system assembles.
   testing::TermFunction Vertex() {
