@@ -3,7 +3,7 @@ BUILD ?= build
 JOBS ?= 2
 CMAKE_FLAGS ?=
 
-.PHONY: setup build demo test acceptance stability test-sanitize bench study study-accuracy study-makehuman fuzz clean
+.PHONY: setup build demo test images test-images acceptance stability test-sanitize bench study study-accuracy study-makehuman fuzz clean
 
 setup:
 	bash scripts/setup.sh
@@ -26,6 +26,20 @@ TEST_ENV = KGD_CACHE_DIR=$(abspath $(BUILD))/test-cache
 test: build
 	bash scripts/setup.sh --browser
 	cd $(BUILD) && $(TEST_ENV) ctest --output-on-failure -j$(JOBS) -LE 'acceptance|long' --timeout 1200
+
+# The images of deploy/docker/Dockerfile (kgd-server, kgd-worker, kgd-cli) built with buildah, no daemon
+# or registry: the base images debian:12 and debian:12-slim come from debootstrap when absent
+# (deploy/images.sh; sizes and build times in $(BUILD)/images.txt).
+images:
+	bash scripts/setup.sh --images
+	bash deploy/images.sh
+
+# The images run (deploy/test_images.py): the server and two workers over TLS with tokens, a job from the
+# cli image with its worker killed mid-job, bit for bit as `kgd design` of this build; twenty jobs of four
+# users while a worker is killed. Builds only kgd here when the build folder has none.
+test-images:
+	test -x $(BUILD)/client/kgd || { cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS) && cmake --build $(BUILD) -j$(JOBS) --target kgd; }
+	python3 deploy/test_images.py --kgd $(BUILD)/client/kgd
 
 # The whole-body scenes' frames (slouch, crouch, lunge), a few minutes; the whole BESO designs of
 # acceptance 2 (tests/beso_acceptance_test.cpp) are part of `make test`.

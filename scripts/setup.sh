@@ -26,8 +26,18 @@ PACKAGES=(
 )
 
 # --browser: also Debian's chromium, for the web page's browser tests (`make test` passes it).
-BROWSER=0
-[ "${1:-}" = "--browser" ] && BROWSER=1
+# --images:  also buildah and debootstrap, which build and run deploy/'s images (`make images`).
+# --no-npm:  the Debian packages only, not the npm libraries (an image's build stage, which has no
+#            sources yet when it installs the packages).
+BROWSER=0 NPM=1
+for arg in "$@"; do
+  case "$arg" in
+    --browser) BROWSER=1 ;;
+    --images) PACKAGES+=(buildah debootstrap) ;;
+    --no-npm) NPM=0 ;;
+    *) echo "setup: unknown option $arg (--browser, --images, --no-npm)" >&2; exit 2 ;;
+  esac
+done
 [ $BROWSER -eq 1 ] && PACKAGES+=(chromium)
 # Node.js and npm fetch the web page's libraries (client/web/package-lock.json); a machine that has
 # them (e.g. from NodeSource) keeps its own.
@@ -79,6 +89,8 @@ if [ "$NODE_MAJOR" -lt 20 ]; then
   echo "setup: Node.js $(node --version 2>/dev/null) is older than 20: installing the web page's libraries only (make test needs Node.js 20)"
   NPM_OMIT="--omit=dev"
 fi
+
+[ $NPM -eq 1 ] || exit 0
 
 # The web page's libraries (three.js, uPlot) and the browser tests' driver (playwright-core), exactly as
 # locked; again only when the lock file is newer than the installed tree.
