@@ -444,10 +444,11 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
   xp->add_option("--body", ex->body, "With a built-in scene: a measurement of the parametric body, name=value in SI (repeatable)");
   xp->add_option("--out", ex->out, "Output folder (created if missing)")->required();
   xp->add_option("--iteration", ex->iteration, "Which iteration's design (default: the last within the budget)");
-  xp->add_option("--min-feature-mm", ex->min_feature_mm, "Remove reinforcement thinner than this (and islands and holes under its square x 4)")
-      ->check(CLI::NonNegativeNumber)->capture_default_str();
-  xp->add_option("--seam-allowance-mm", ex->seam_allowance_mm, "Seam allowance around every pattern piece")->check(CLI::NonNegativeNumber)->capture_default_str();
-  xp->add_option("--sheet-width-mm", ex->sheet_width_mm, "Width of the vinyl roll the patches are nested on")->check(CLI::PositiveNumber)->capture_default_str();
+  // Their ranges are checked with the export itself (exit 2, the value named), as the service checks them.
+  xp->add_option("--min-feature-mm", ex->min_feature_mm, "Remove reinforcement thinner than this (and islands and holes under its square x 4); [0, 100]")
+      ->capture_default_str();
+  xp->add_option("--seam-allowance-mm", ex->seam_allowance_mm, "Seam allowance around every pattern piece; [0, 100]")->capture_default_str();
+  xp->add_option("--sheet-width-mm", ex->sheet_width_mm, "Width of the vinyl roll the patches are nested on; (0, 10000]")->capture_default_str();
   xp->add_flag("--no-mirror", ex->no_mirror, "Do not mirror the patches (mirrored is right for heat-transfer vinyl cut from the back)");
   xp->add_option("--formats", ex->formats, "Comma-separated: svg, dxf, png (a preview)")->capture_default_str();
   xp->add_flag("--json", ex->json, "Print the report as JSON");

@@ -41,7 +41,7 @@ Result<TokenTable> TokenTable::Load(const std::string& path) {
 
 Result<Caller> TokenTable::AuthenticateToken(const std::string& token) const {
   if (!enabled()) return Caller{};
-  if (token.empty()) return Status::Error("this server needs a token (authorization: Bearer TOKEN)");
+  if (token.empty()) return Status::Error("this server needs a token (kgd and kgd-worker: --token or $KGD_TOKEN; HTTP: authorization: Bearer TOKEN)");
   auto it = tokens_.find(token);
   if (it == tokens_.end()) return Status::Error("the token is not known to this server");
   return it->second;

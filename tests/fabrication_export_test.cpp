@@ -354,6 +354,9 @@ TEST(Export, BadInputIsRefusedByNameAndLeavesNoFile) {
       {"export " + (dir / "missing.h5").string(), "missing.h5"},
       {"export pull_test_all_cloth", "nothing to cut"},
       {"export no_such_scene", "no_such_scene"},
+      {"export " + file + " --sheet-width-mm 1e300", "sheet width (--sheet-width-mm, sheetWidthMm) 1e+300 mm is not a finite number"},
+      {"export " + file + " --seam-allowance-mm -1", "seam allowance (--seam-allowance-mm, seamAllowanceMm) -1 mm is not a finite number"},
+      {"export " + file + " --min-feature-mm nan", "minimum feature (--min-feature-mm, minFeatureMm) nan mm"},
   };
   for (const Case& c : cases) {
     const fs::path out = dir / "out";
