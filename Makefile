@@ -21,10 +21,12 @@ demo: build
 # --timeout: a test that hangs fails with its name after 20 minutes (the longest takes about one)
 # instead of holding the whole run. The tests' design jobs keep their scene cache and their machine
 # factor (cost_calibration.json) in the build folder: jobs of a few iterations on small scenes would
-# teach the user's own cache a factor that predicts real jobs badly.
+# teach the user's own cache a factor that predicts real jobs badly. setup.sh --browser runs before the
+# build: where it installs Node.js 20, that is the node CMake finds for the browser test.
 TEST_ENV = KGD_CACHE_DIR=$(abspath $(BUILD))/test-cache
-test: build
+test:
 	bash scripts/setup.sh --browser
+	$(MAKE) build
 	cd $(BUILD) && $(TEST_ENV) ctest --output-on-failure -j$(JOBS) -LE 'acceptance|long' --timeout 1200
 
 # The images of deploy/docker/Dockerfile (kgd-server, kgd-worker, kgd-cli) built with buildah, no daemon
