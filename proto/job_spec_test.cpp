@@ -120,12 +120,12 @@ TEST(JobSpec, ASceneFileTravelsWithItsMeshes) {
   EXPECT_EQ(scene->design, original->design);
   EXPECT_EQ(JobSceneName(spec), original->name);
 
-  // A bundle whose mesh does not parse names the file as the scene names it.
-  const std::string first = spec.scene_files().files().begin()->first;
-  (*spec.mutable_scene_files()->mutable_files())[first] = "ply\nformat ascii 1.0\n";
+  // A bundle whose mesh does not parse names the file and line as the scene names them.
+  ASSERT_EQ(spec.scene_files().files().count("garment_rest.obj"), 1u);
+  (*spec.mutable_scene_files()->mutable_files())["garment_rest.obj"] = "v 0 0 0\nv 1 2 zero\n";
   Result<SceneSpec> broken = SceneOfJob(spec);
   ASSERT_FALSE(broken.ok());
-  EXPECT_EQ(broken.message().rfind("spec.scene_files: " + first + ": ", 0), 0u) << broken.message();
+  EXPECT_EQ(broken.message().rfind("spec.scene_files: garment_rest.obj:2: vertex 1: expected three numbers", 0), 0u) << broken.message();
 }
 
 // Scene files are the JSON form of kgd.v1.Scene: exported scenes of every kind (a garment of its own
