@@ -42,6 +42,8 @@ make_base() {
   if [ -f /etc/apt/sources.list.d/debian.sources ]; then
     cp /etc/apt/sources.list.d/debian.sources "$root/etc/apt/sources.list.d/debian.sources"
     rm -f "$root/etc/apt/sources.list"
+  elif grep -qs '^deb .*bookworm' /etc/apt/sources.list; then
+    grep '^deb .*bookworm' /etc/apt/sources.list > "$root/etc/apt/sources.list"
   fi
   # Current against those sources, as Docker Hub's debian:12 is (debootstrap takes bookworm's release).
   cp /etc/resolv.conf "$root/etc/resolv.conf"
