@@ -19,6 +19,19 @@ std::shared_ptr<const BodyField> Limb() {
   return *f;
 }
 
+// One vertex's contact energy as a term of its three coordinates (the exact Hessian, or with
+// `project` the projected one), on `field` with `cache`.
+testing::TermFunction ContactVertexTerm(const BodyField& field, NeighborCache& cache, ContactModel model, double k, bool project) {
+  return [&field, &cache, model, k, project](const Eigen::VectorXd& q, Eigen::VectorXd* gq, Eigen::MatrixXd* Hq) {
+    Eigen::Vector3d g3;
+    Eigen::Matrix3d H3;
+    const double E = EvaluateContactVertex(field, q, &cache, model, k, gq ? &g3 : nullptr, Hq ? &H3 : nullptr, project).energy_J;
+    if (gq) *gq = g3;
+    if (Hq) *Hq = H3;
+    return E;
+  };
+}
+
 // Penalty gradient and exact Hessian against central differences, inside and outside the body.
 TEST(Contact, GradientAndHessianMatchFiniteDifferences) {
   const auto field = Limb();
@@ -38,14 +51,7 @@ TEST(Contact, GradientAndHessianMatchFiniteDifferences) {
       if (radial > 0.041) {
         EXPECT_GT(ce.phi_m, 0);
       }
-      const testing::TermFunction term = [&](const Eigen::VectorXd& q, Eigen::VectorXd* gq, Eigen::MatrixXd* Hq) {
-        Eigen::Vector3d g3;
-        Eigen::Matrix3d H3;
-        const double E = EvaluateContactVertex(*field, q, &cache, model, k, gq ? &g3 : nullptr, Hq ? &H3 : nullptr, false).energy_J;
-        if (gq) *gq = g3;
-        if (Hq) *Hq = H3;
-        return E;
-      };
+      const testing::TermFunction term = ContactVertexTerm(*field, cache, model, k, false);
       EXPECT_TRUE(testing::MatchesFiniteDifferences(term, x, {.step = 1e-7, .tolerance = 1e-5, .gradient_floor = 1e-3, .hessian_floor = 1.0}));
       if (model == ContactModel::kUnilateral && ce.phi_m > 0) {
         EXPECT_EQ(ce.energy_J, 0.0);
@@ -105,20 +111,8 @@ TEST(Contact, AtTheSurfaceTheKinkIsWhereTheModelPutsIt) {
       }
       // Central differences with a step well inside |Phi| (never across the kink).
       const double step = 1e-2 * std::abs(phi);
-      const testing::TermFunction term = [&, model](const Eigen::VectorXd& q, Eigen::VectorXd* gq, Eigen::MatrixXd* Hq) {
-        Eigen::Vector3d g3;
-        Eigen::Matrix3d H3;
-        const double E = EvaluateContactVertex(*field, q, &cache, model, k, gq ? &g3 : nullptr, Hq ? &H3 : nullptr, false).energy_J;
-        if (gq) *gq = g3;
-        if (Hq) *Hq = H3;
-        return E;
-      };
-      const testing::TermFunction projected = [&, model](const Eigen::VectorXd& q, Eigen::VectorXd*, Eigen::MatrixXd* Hq) {
-        Eigen::Matrix3d H3;
-        EvaluateContactVertex(*field, q, &cache, model, k, nullptr, &H3, true);
-        *Hq = H3;
-        return 0.0;
-      };
+      const testing::TermFunction term = ContactVertexTerm(*field, cache, model, k, false);
+      const testing::TermFunction projected = ContactVertexTerm(*field, cache, model, k, true);
       EXPECT_TRUE(testing::MatchesFiniteDifferences(term, x, {.step = step, .tolerance = 1e-5, .gradient_floor = 1e-3 * k * std::abs(phi), .hessian_floor = 1e-3 * k}));
       EXPECT_TRUE(testing::ProjectionIsEigenvalueClamp(term, projected, x));
       EXPECT_TRUE(testing::ProjectionIsPsd(term, projected, x));

@@ -10,6 +10,20 @@
 namespace kgd {
 namespace {
 
+// One triangle's fold barrier against normal `n` as a term of its nine coordinates (the exact Hessian,
+// or with `project` the projected one).
+testing::TermFunction FoldBarrierOf(const Eigen::Vector3d& n, double area, bool project) {
+  return [n, area, project](const Eigen::VectorXd& v, Eigen::VectorXd* g, Eigen::MatrixXd* h) {
+    Vector9d g9;
+    Matrix9d h9;
+    const double E =
+        EvaluateFoldBarrier(v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), n, area, 1.0, g ? &g9 : nullptr, h ? &h9 : nullptr, project);
+    if (g) *g = g9;
+    if (h) *h = h9;
+    return E;
+  };
+}
+
 TEST(FoldBarrier, FunctionIsC2AtActivationAndInfiniteWhenFolded) {
   const double qh = kFoldBarrierActivation;
   const FoldBarrierValue at = FoldBarrierFunction(qh - 1e-9);
@@ -48,17 +62,7 @@ TEST(FoldBarrier, GradientAndHessianMatchFiniteDifferences) {
     q.segment<3>(3) = q.segment<3>(0) + 0.01 * a;
     const Eigen::Vector3d third = trial % 2 ? Eigen::Vector3d(0.01 * squeeze * b) : Eigen::Vector3d(0.01 * (std::cos(turn) * b + std::sin(turn) * n));
     q.segment<3>(6) = q.segment<3>(0) + third;
-    auto term = [&](bool project) -> testing::TermFunction {
-      return [&, project](const Eigen::VectorXd& v, Eigen::VectorXd* g, Eigen::MatrixXd* h) {
-        Vector9d g9;
-        Matrix9d h9;
-        const double E = EvaluateFoldBarrier(v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), n, area, 1.0, g ? &g9 : nullptr,
-                                             h ? &h9 : nullptr, project);
-        if (g) *g = g9;
-        if (h) *h = h9;
-        return E;
-      };
-    };
+    auto term = [&](bool project) { return FoldBarrierOf(n, area, project); };
     const double E = term(false)(q, nullptr, nullptr);
     if (!(E > 0) || !std::isfinite(E)) continue;
     ++active;
@@ -107,17 +111,7 @@ Vector9d TriangleWithAreaRatio(double q, double spin, double tilt, const Eigen::
 TEST(FoldBarrier, ZeroWhereInactiveAndContinuousAcrossActivation) {
   const Eigen::Vector3d n = Eigen::Vector3d(-0.3, 0.1, 1.0).normalized();
   const double area = 0.5e-4, qh = kFoldBarrierActivation;
-  auto term = [&](bool project) -> testing::TermFunction {
-    return [&, project](const Eigen::VectorXd& v, Eigen::VectorXd* g, Eigen::MatrixXd* h) {
-      Vector9d g9;
-      Matrix9d h9;
-      const double E = EvaluateFoldBarrier(v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), n, area, 1.0, g ? &g9 : nullptr,
-                                           h ? &h9 : nullptr, project);
-      if (g) *g = g9;
-      if (h) *h = h9;
-      return E;
-    };
-  };
+  auto term = [&](bool project) { return FoldBarrierOf(n, area, project); };
   auto ratio = [&](const Vector9d& x) {
     return (x.segment<3>(3) - x.segment<3>(0)).cross(x.segment<3>(6) - x.segment<3>(0)).dot(n) / (2 * area);
   };
