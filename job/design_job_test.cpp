@@ -2,9 +2,15 @@
 // share: the header describes the scene's garment and the spec's settings, a resumed job continues bit
 // for bit, and a scene that no longer gives the stored garment is refused with the difference named.
 #include "job/design_job.h"
+#include "core/beso/design_constraints.h"
 #include "core/scene/builtin_scenes.h"
+#include "core/scene/scene_file.h"
+#include "proto/job_spec.h"
 
 #include <gtest/gtest.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
 
 namespace kgd {
 namespace {
@@ -202,6 +208,89 @@ TEST(DesignJob, AFlatSceneIsEvaluatedWithoutFramesAndSaysSo) {
   Result<DesignEvaluation> wrong = EvaluateDesign(r.job, r.last, r.last);
   ASSERT_FALSE(wrong.ok());
   EXPECT_NE(wrong.message().find("not 0"), std::string::npos) << wrong.message();
+}
+
+// A scene file's design constraints travel with a job: a symmetric sheet with a kept-out and a
+// kept-in face, exported, sent as a job spec and run, gives designs symmetric face for face with the
+// kept-out pair cloth and the kept-in pair reinforced in every iteration; a scene whose garment is not
+// symmetric about its plane is refused at load, naming faces; the job's `symmetric` field asks for
+// the sagittal plane x = 0 on a scene that names none.
+TEST(DesignJob, DesignConstraintsTravelWithTheJobAndHoldInEveryIteration) {
+  SceneSpec scene = *PullTestScene("all_cloth");
+  // Diagonals mirrored about x = 5 cm ("/" left, "\" right): symmetric face for face.
+  const int columns = 41;
+  for (Eigen::Index f = 0; f + 1 < scene.garment.faces.rows(); f += 2) {
+    const int a = scene.garment.faces.row(f).minCoeff(), b = a + 1, c = a + columns, d = c + 1;
+    if (scene.garment.vertices(a, 0) + 1e-12 < 0.05) continue;
+    scene.garment.faces.row(f) << a, c, b;
+    scene.garment.faces.row(f + 1) << b, c, d;
+  }
+  scene.symmetry = SymmetryPlane{Eigen::Vector3d(0.05, 0, 0), Eigen::Vector3d::UnitX(), 0};
+  scene.keep_out_faces = {2 * (40 * 28 + 18)};  // a face near the centre of the sheet
+  scene.keep_in_faces = {2 * (40 * 20 + 3)};
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "kgd_design_job_constraints";
+  std::filesystem::remove_all(dir);
+  ASSERT_TRUE(ExportScene(scene, dir.string()).ok());
+  Result<v1::SceneFiles> files = ReadSceneFiles((dir / "scene.json").string());
+  ASSERT_TRUE(files.ok()) << files.message();
+  v1::JobSpec spec;
+  *spec.mutable_scene_files() = *files;
+  *spec.mutable_optimizer() = QuickPullTest();
+  spec.mutable_optimizer()->set_max_iterations(4);
+  Result<SceneSpec> loaded = SceneOfJob(spec);
+  ASSERT_TRUE(loaded.ok()) << loaded.message();
+  EXPECT_EQ(loaded->keep_out_faces, scene.keep_out_faces);
+  EXPECT_EQ(loaded->keep_in_faces, scene.keep_in_faces);
+  ASSERT_TRUE(loaded->symmetry.has_value());
+  EXPECT_TRUE(loaded->symmetry->point_m == scene.symmetry->point_m);
+  Result<MirrorPairing> pairing = PairMirrorFaces(loaded->garment, *loaded->symmetry);
+  ASSERT_TRUE(pairing.ok()) << pairing.message();
+  Result<DesignJob> job = NewDesignJob(*loaded, spec.optimizer(), "sheet", "");
+  ASSERT_TRUE(job.ok()) << job.message();
+  Result<std::vector<BesoIteration>> run = RunDesignJob(*job, {});
+  ASSERT_TRUE(run.ok()) << run.message();
+  ASSERT_EQ(run->size(), 5u);
+  for (const BesoIteration& it : *run) {
+    SCOPED_TRACE("iteration " + std::to_string(it.iteration));
+    for (int f : scene.keep_out_faces) {
+      EXPECT_EQ(it.design[f], kCloth);
+      EXPECT_EQ(it.design[pairing->mirror[f]], kCloth);
+    }
+    for (int f : scene.keep_in_faces) {
+      EXPECT_EQ(it.design[f], kReinforced);
+      EXPECT_EQ(it.design[pairing->mirror[f]], kReinforced);
+    }
+    for (size_t f = 0; f < it.design.size(); ++f) ASSERT_EQ(it.design[f], it.design[pairing->mirror[f]]) << "face " << f;
+  }
+  EXPECT_LT(run->back().area_fraction, 0.9);
+
+  // The scene file's plane moved 1 cm off the centre: refused when the scene is loaded, faces named.
+  nlohmann::json doc = nlohmann::json::parse(SceneJson(spec.scene_files().scene()));
+  doc["garment"]["symmetry"]["point_m"] = {0.06, 0, 0};
+  Result<v1::Scene> off = ParseSceneJson(doc.dump(), "scene.json");
+  ASSERT_TRUE(off.ok()) << off.message();
+  v1::JobSpec off_spec = spec;
+  *off_spec.mutable_scene_files()->mutable_scene() = *off;
+  Result<SceneSpec> refused = SceneOfJob(off_spec);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.message().find("garment.symmetry: the garment is not symmetric"), std::string::npos) << refused.message();
+  EXPECT_NE(refused.message().find("faces 0, 1, "), std::string::npos) << refused.message();
+
+  // Without the scene's plane, the job's `symmetric` field asks for the sagittal plane, x = 0.
+  doc["garment"].erase("symmetry");
+  Result<v1::Scene> plain = ParseSceneJson(doc.dump(), "scene.json");
+  ASSERT_TRUE(plain.ok());
+  *off_spec.mutable_scene_files()->mutable_scene() = *plain;
+  off_spec.mutable_optimizer()->set_symmetric(true);
+  Result<SceneSpec> unnamed = SceneOfJob(off_spec);
+  ASSERT_TRUE(unnamed.ok()) << unnamed.message();
+  Result<DesignJob> sagittal = NewDesignJob(*unnamed, off_spec.optimizer(), "sheet", "");
+  ASSERT_TRUE(sagittal.ok()) << sagittal.message();
+  EXPECT_TRUE(sagittal->settings().symmetric);
+  Result<std::vector<BesoIteration>> none = RunDesignJob(*sagittal, {});
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.message().find("through [0, 0, 0] with normal [1, 0, 0]"), std::string::npos) << none.message();
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -36,6 +36,8 @@ std::vector<std::pair<std::string, std::string>> FilesNamed(const v1::Scene& s) 
   if (s.garment().has_initial()) add("garment.initial", s.garment().initial());
   add_value("garment.region", s.garment().region());
   add_value("garment.seams", s.garment().seams());
+  add_value("garment.keep_out", s.garment().keep_out());
+  add_value("garment.keep_in", s.garment().keep_in());
   const google::protobuf::Value& design = s.garment().design();
   if (design.has_struct_value())
     if (auto f = design.struct_value().fields().find("reinforced_faces"); f != design.struct_value().fields().end())

@@ -37,7 +37,9 @@ namespace kgd {
   X(temporal_averaging, true, "--no-averaging", no_temporal_averaging, "No temporal averaging of the sensitivities")     \
   X(average_with_raw, false, "--average-with-raw", average_with_raw,                                                    \
     "Average with the previous iteration's filtered, not averaged, sensitivities (the authors' code)")                 \
-  X(keep_attachments, false, "--keep-attachments", keep_attachments, "Attachment triangles stay reinforced")
+  X(keep_attachments, false, "--keep-attachments", keep_attachments, "Attachment triangles stay reinforced")          \
+  X(symmetric, false, "--symmetric", symmetric,                                                                          \
+    "Mirror-symmetric designs about the scene's symmetry plane (default: the parametric body's sagittal plane, x = 0)")
 
 // budget: target reinforced area A* as a fraction of the garment area. evolutionary_ratio (ER): the
 // target area shrinks by this fraction per iteration. admission_ratio (AR_max): at most this fraction
@@ -46,7 +48,8 @@ namespace kgd {
 // relative objective change stays below tau over the window, with the target area reached.
 // temporal_averaging: average filtered sensitivities with the previous iteration's averaged ones (Huang
 // & Xie, the paper) or, with average_with_raw, its filtered-only ones (the authors' code).
-// keep_attachments: attachment triangles stay reinforced.
+// keep_attachments: attachment triangles stay reinforced. symmetric: every design is mirror symmetric
+// (core/beso/design_constraints.h; a scene with garment.symmetry is symmetric without it).
 struct BesoSettings {
 #define KGD_DECLARE_BESO_VALUE(type, name, default_value, flag, help) type name = default_value;
   KGD_BESO_VALUES(KGD_DECLARE_BESO_VALUE)

@@ -2,7 +2,9 @@
 
 #include <chrono>
 #include <cstdio>
+#include <optional>
 
+#include "core/beso/design_constraints.h"
 #include "core/scene/simulate.h"
 
 namespace kgd {
@@ -115,8 +117,35 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
   Eigen::VectorXd area(nf);
   for (int f = 0; f < nf; ++f) area[f] = sys.elements()[f].rest_area_m2;
   const double total_area = area.sum(), final_area = settings.budget * total_area;
+  // Keep-out, keep-in and symmetry: BESO then decides on units (design_constraints.h). Without them
+  // the loop is the plain one below, unchanged.
+  const std::optional<SymmetryPlane> plane = scene.symmetry ? scene.symmetry : settings.symmetric ? std::optional(SymmetryPlane{}) : std::nullopt;
+  const bool constrained = plane || !scene.keep_out_faces.empty() || !scene.keep_in_faces.empty();
+  std::optional<MirrorPairing> pairing;
+  std::optional<DesignUnits> units;
+  if (constrained) {
+    if (plane) {
+      Result<MirrorPairing> p = PairMirrorFaces(scene.garment, *plane);
+      if (!p.ok()) return p.status();
+      pairing = std::move(p).value();
+    }
+    Result<DesignUnits> u = MakeDesignUnits(nf, scene.keep_out_faces, scene.keep_in_faces,
+                                            settings.keep_attachments ? scene.attachment_faces : std::vector<int>{},
+                                            pairing ? &*pairing : nullptr);
+    if (!u.ok()) return u.status();
+    units = std::move(u).value();
+    const double kept_in = LockedArea(*units, area);
+    if (kept_in > final_area)
+      return Status::Error(std::string(settings.keep_attachments ? "garment.keep_in and the kept attachments" : "garment.keep_in") + " cover " +
+                           std::to_string(100 * kept_in / total_area) + " % of the garment" + (pairing ? " (with their mirror images)" : "") +
+                           ", more than the budget of " + std::to_string(100 * settings.budget) + " %");
+    if (!last) scene.design = FullDesign(*units);
+    else if (Status st = CheckDesignConstraints(*units, last->design); !st.ok())
+      return Status::Error("cannot resume: the stored iteration " + std::to_string(last->iteration) + " breaks the design constraints: " +
+                           st.message());
+  }
   std::vector<uint8_t> locked;
-  if (settings.keep_attachments) {
+  if (settings.keep_attachments && !constrained) {
     locked.assign(nf, 0);
     double locked_area = 0;
     for (int f : scene.attachment_faces) {
@@ -133,7 +162,8 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
   Positions x = last ? last->positions : scene.initial;
   Eigen::VectorXd previous = last ? last->sensitivity : Eigen::VectorXd();
   Eigen::VectorXd density = last ? last->energy_density_Pa : Eigen::VectorXd();  // W at x
-  double target = last ? last->target_area_m2 : total_area;
+  double target = last ? last->target_area_m2 : units ? total_area - KeptOutArea(*units, area) : total_area;
+  if (units && !last) sys.SetDesign(design);
   double full_density = past.empty() ? 0.0 : past.front().reinforced_density_J_per_m2;
   if (last && BesoFinished(past, settings, total_area)) return out;
   for (int it = last ? last->iteration + 1 : 0; it <= settings.max_iterations; ++it) {
@@ -148,14 +178,16 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
       b.sensitivity_s = Since(t0);
       t0 = Clock::now();
       Eigen::VectorXd filtered = FilterSensitivities(s, scene.garment.faces, nv, area);
+      if (pairing) filtered = SymmetrizeOverGroups(filtered, area, *units);
       const Eigen::VectorXd raw = filtered;
       if (settings.temporal_averaging) filtered = AverageSensitivities(filtered, previous);
       previous = settings.average_with_raw ? raw : filtered;
       b.filter_s = Since(t0);
       t0 = Clock::now();
       target = NextTargetArea(target, final_area, settings.evolutionary_ratio);
-      design = UpdateDesign(filtered, area, design, target, settings.admission_ratio * total_area,
-                            settings.keep_attachments ? &locked : nullptr);
+      design = units ? UpdateDesignOnUnits(*units, filtered, area, design, target, settings.admission_ratio * total_area)
+                     : UpdateDesign(filtered, area, design, target, settings.admission_ratio * total_area,
+                                    settings.keep_attachments ? &locked : nullptr);
       sys.SetDesign(design);
       b.update_s = Since(t0);
       b.sensitivity = previous;

@@ -16,6 +16,16 @@
 
 namespace kgd {
 
+// A mirror plane (garment.symmetry): through `point_m` with unit `normal`. The default is the
+// parametric body's sagittal plane, x = 0 (core/body/parametric_body.h: +x is the body's left).
+// tolerance_m: how far a face's mirrored rest centroid may lie from its partner's; 0: twice the
+// garment's mean rest edge length.
+struct SymmetryPlane {
+  Eigen::Vector3d point_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitX();
+  double tolerance_m = 0;
+};
+
 struct SceneSpec {
   std::string name;
   TriMesh garment;                 // rest positions and connectivity
@@ -37,6 +47,10 @@ struct SceneSpec {
   SolverSettings solver;
   std::string description;
   double budget = 1.0;             // reinforced fraction of the garment area a design job aims at
+  // Design constraints of a design job (garment faces; no effect on a simulation): keep_out faces are
+  // never reinforced, keep_in faces always are; `symmetry`: every design is mirror symmetric about it.
+  std::vector<int> keep_out_faces, keep_in_faces;
+  std::optional<SymmetryPlane> symmetry;
 
   // Garments cut from the body (garment.region). Then garment = the cut in the motion's rest pose,
   // initial = the cut in the deformed pose, body = the deformed body.

@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 
+#include "core/beso/design_constraints.h"
 #include "core/mesh/mesh_io.h"
 #include "core/scene/scene_keys.h"
 
@@ -357,6 +358,40 @@ Status ReadSeams(const Reader& r, const json& g, SceneSpec* s) {
   return Status::Ok();
 }
 
+// garment.keep_out, garment.keep_in (garment faces) and garment.symmetry (a mirror plane; its pairing
+// is checked here, so that an asymmetric garment is refused with its scene file's name).
+Status ReadDesignConstraints(const Reader& r, const json& g, SceneSpec* s) {
+  const int nf = static_cast<int>(s->garment.faces.rows());
+  for (auto [key, out] : {std::pair{sk::SceneGarment::keep_out, &s->keep_out_faces}, std::pair{sk::SceneGarment::keep_in, &s->keep_in_faces}}) {
+    if (!g.contains(key)) continue;
+    const std::string name = std::string("garment.") + key;
+    Result<std::vector<int>> faces = r.Indices(g[key], name);
+    if (!faces.ok()) return faces.status();
+    KGD_RETURN_IF_ERROR(ValidateFaceList(*faces, nf, r.file() + ": " + name));
+    *out = std::move(faces).value();
+  }
+  std::vector<uint8_t> out(nf, 0);
+  for (int f : s->keep_out_faces) out[f] = 1;
+  for (int f : s->keep_in_faces)
+    if (out[f]) return r.Fail("garment.keep_in", "face " + std::to_string(f) + " is also in garment.keep_out");
+  if (!g.contains(sk::SceneGarment::symmetry)) return Status::Ok();
+  const json& sym = g[sk::SceneGarment::symmetry];
+  KGD_RETURN_IF_ERROR(r.CheckKeys(sym, "garment.symmetry", "SceneSymmetry"));
+  SymmetryPlane plane;
+  KGD_RETURN_IF_ERROR(r.Vec3(sym, "garment.symmetry", sk::SceneSymmetry::point_m, &plane.point_m));
+  KGD_RETURN_IF_ERROR(r.Vec3(sym, "garment.symmetry", sk::SceneSymmetry::normal, &plane.normal));
+  if (!(plane.normal.norm() > 0)) return r.Fail("garment.symmetry.normal", "must not be zero");
+  plane.normal.normalize();
+  KGD_RETURN_IF_ERROR(r.Number(sym, "garment.symmetry", sk::SceneSymmetry::tolerance_m, &plane.tolerance_m));
+  if (sym.contains(sk::SceneSymmetry::tolerance_m) && !(plane.tolerance_m > 0)) return r.Fail("garment.symmetry.tolerance_m", "must be > 0");
+  Result<MirrorPairing> pairing = PairMirrorFaces(s->garment, plane);
+  if (!pairing.ok()) return Status::Error(r.file() + ": garment." + pairing.message());
+  Result<DesignUnits> units = MakeDesignUnits(nf, s->keep_out_faces, s->keep_in_faces, {}, &*pairing);
+  if (!units.ok()) return Status::Error(r.file() + ": " + units.message());
+  s->symmetry = plane;
+  return Status::Ok();
+}
+
 Status ReadMaterials(const Reader& r, const json& doc, SceneSpec* s) {
   // Materials.
   if (doc.contains(sk::Scene::materials)) {
@@ -512,6 +547,7 @@ Result<SceneSpec> LoadSceneText(const std::string& text, const std::string& path
   KGD_RETURN_IF_ERROR(g.contains(sk::SceneGarment::region) ? ReadGarmentCutFromBody(r, g, b, a, &s) : ReadGarmentOfItsOwn(r, g, b, a, &s));
   KGD_RETURN_IF_ERROR(ReadDesign(r, g, &s));
   KGD_RETURN_IF_ERROR(ReadSeams(r, g, &s));
+  KGD_RETURN_IF_ERROR(ReadDesignConstraints(r, g, &s));
   if (doc.contains(sk::Scene::description)) {
     if (!doc[sk::Scene::description].is_string()) return r.Fail("description", "must be a string");
     s.description = doc[sk::Scene::description].get<std::string>();
@@ -618,6 +654,21 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
     doc[sk::Scene::garment][sk::SceneGarment::design] = {{sk::SceneDesign::reinforced_faces, "reinforced_faces.txt"}};
   }
   if (!s.seams.empty()) doc[sk::Scene::garment][sk::SceneGarment::seams] = s.seams;
+  if (!s.keep_out_faces.empty()) {
+    KGD_RETURN_IF_ERROR(WriteIndexList((dir / "keep_out_faces.txt").string(), s.keep_out_faces));
+    doc[sk::Scene::garment][sk::SceneGarment::keep_out] = "keep_out_faces.txt";
+  }
+  if (!s.keep_in_faces.empty()) {
+    KGD_RETURN_IF_ERROR(WriteIndexList((dir / "keep_in_faces.txt").string(), s.keep_in_faces));
+    doc[sk::Scene::garment][sk::SceneGarment::keep_in] = "keep_in_faces.txt";
+  }
+  if (s.symmetry) {
+    const SymmetryPlane& p = *s.symmetry;
+    nlohmann::ordered_json sym = {{sk::SceneSymmetry::point_m, {p.point_m[0], p.point_m[1], p.point_m[2]}},
+                                  {sk::SceneSymmetry::normal, {p.normal[0], p.normal[1], p.normal[2]}}};
+    if (p.tolerance_m > 0) sym[sk::SceneSymmetry::tolerance_m] = p.tolerance_m;
+    doc[sk::Scene::garment][sk::SceneGarment::symmetry] = sym;
+  }
   doc[sk::Scene::materials] = {{sk::SceneMaterials::lame, s.lame == LameConversion::kSolid3D ? "solid3d" : "plane_stress"},
                       {sk::SceneMaterials::cloth, MaterialJson(s.cloth)},
                       {sk::SceneMaterials::reinforced, MaterialJson(s.reinforced)}};

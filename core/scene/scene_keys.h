@@ -30,6 +30,12 @@
   X(SceneGarment, subdivisions, "midpoint subdivisions of the region (each turns 1 face into 4)")     \
   X(SceneGarment, design, "\"all_cloth\", \"all_reinforced\" or a SceneDesign object")                \
   X(SceneGarment, seams, "where kgd export cuts the pattern: [[v, v, ...], ...] or \"seams.txt\"")    \
+  X(SceneGarment, keep_out, "design jobs never reinforce these garment faces: \"faces.txt\" or [0, 1, ...]") \
+  X(SceneGarment, keep_in, "design jobs always reinforce these garment faces (counted in the budget)") \
+  X(SceneGarment, symmetry, "SceneSymmetry: design jobs keep every design mirror symmetric")         \
+  X(SceneSymmetry, point_m, "[x, y, z] on the mirror plane, m (default [0, 0, 0])")                  \
+  X(SceneSymmetry, normal, "[nx, ny, nz], the plane's normal (default [1, 0, 0]: the body's sagittal plane)") \
+  X(SceneSymmetry, tolerance_m, "mirrored face centroids lie within this of their partners' (default: 2 mean edges), m") \
   X(SceneDesign, reinforced_faces, "garment faces (after subdivision), \"faces.txt\" or [0, 1, ...]") \
   X(SceneMaterials, lame, "\"solid3d\" (the authors' code, default) or \"plane_stress\"")             \
   X(SceneMaterials, cloth, "SceneMaterial: the garment fabric")                                       \
