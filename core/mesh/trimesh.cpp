@@ -16,6 +16,14 @@ Eigen::VectorXd FaceAreas(const Positions& x, const Faces& faces) {
   return areas;
 }
 
+Eigen::VectorXd LumpedVertexAreas(const Positions& x, const Faces& faces) {
+  const Eigen::VectorXd face = FaceAreas(x, faces);
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(x.rows());
+  for (Eigen::Index f = 0; f < faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) out[faces(f, k)] += face[f] / 3.0;
+  return out;
+}
+
 double EnclosedVolume(const Positions& x, const Faces& faces) {
   if (faces.rows() == 0) return 0.0;
   // Tetrahedra from a point near the surface rather than the origin: the same sum, less cancellation

@@ -24,6 +24,10 @@ struct TriMesh {
 // Area of every face (m^2).
 Eigen::VectorXd FaceAreas(const Positions& x, const Faces& faces);
 
+// Lumped area of every vertex (m^2): a third of the areas of the faces around it (zero for isolated
+// vertices). They sum to the surface area.
+Eigen::VectorXd LumpedVertexAreas(const Positions& x, const Faces& faces);
+
 // Volume the surface encloses (m^3), by the divergence theorem: positive when the faces are
 // counter-clockwise seen from outside. Precondition: a closed surface (every edge shared by two faces
 // of opposite orientation, CheckClosedOrientedManifold); for an open one the value is not a volume.

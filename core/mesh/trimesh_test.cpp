@@ -21,6 +21,19 @@ TEST(TriMesh, SheetAreasSumToTheRectangle) {
   EXPECT_TRUE(ValidateMesh(m.vertices, m.faces, "sheet").ok());
 }
 
+// Lumped vertex areas: an interior vertex of the sheet's grid carries one cell (six half-cells, a third
+// each), the whole sum is the sheet's area.
+TEST(TriMesh, LumpedVertexAreasShareEveryFaceInThirds) {
+  const double h = 0.0025;
+  const TriMesh m = RectangleSheet(0.10, 0.14, h);
+  const Eigen::VectorXd a = LumpedVertexAreas(m.vertices, m.faces);
+  EXPECT_NEAR(a.sum(), 0.014, 1e-12);
+  const int interior = 20 * 41 + 20;  // row 20, column 20 of the 41 x 57 grid
+  EXPECT_NEAR(a[interior], h * h, 1e-15);
+  EXPECT_GT(a[0], 0.0);
+  EXPECT_LT(a[0], 0.5 * h * h);
+}
+
 // A unit cube of twelve triangles: 1 m^3 whatever its pose; scaled by s, s^3; turned inside out, -1.
 TEST(TriMesh, EnclosedVolumeOfACube) {
   const TriMesh cube = BoxSurface(1, 1, 1);

@@ -16,7 +16,7 @@ SimulationResult Summarize(GarmentSystem& sys, const Positions& x, const Positio
   r.face_energy_J.resize(sys.num_faces());
   for (int f = 0; f < sys.num_faces(); ++f) {
     const double t = m.design[f] == kReinforced ? m.reinforced.thickness_m : m.cloth.thickness_m;
-    const double a = sys.elements()[f].rest_area_m2;
+    const double a = sys.rest_areas_m2()[f];
     r.face_energy_J[f] = t * a * r.face_density_Pa[f];
     r.garment_area_m2 += a;
     if (m.design[f] == kReinforced) {
@@ -45,6 +45,11 @@ SimulationResult Summarize(GarmentSystem& sys, const Positions& x, const Positio
   return r;
 }
 
+SkinPressure SceneSkinPressure(const SceneSpec& scene, const GarmentModel& model, const Positions& x) {
+  if (!scene.body || !model.body || model.effects.contact == ContactModel::kNone) return {};
+  return ComputeSkinPressure(*scene.body, *model.body, x, model.faces, model.effects.contact, model.contact_stiffness_N_per_m);
+}
+
 Result<SimulationResult> SimulateScene(const SceneSpec& scene) {
   Result<GarmentModel> model = BuildGarmentModel(scene);
   if (!model.ok()) return model.status();
@@ -53,7 +58,9 @@ Result<SimulationResult> SimulateScene(const SceneSpec& scene) {
   Positions x = scene.initial;
   const SolveReport report = SolveLagged(sim, sys, &x, scene.solver);
   // Inversion is judged against the garment lying on the body where the scene has one.
-  return Summarize(sys, x, scene.on_body.rows() ? scene.on_body : scene.initial, report);
+  SimulationResult r = Summarize(sys, x, scene.on_body.rows() ? scene.on_body : scene.initial, report);
+  r.skin = SceneSkinPressure(scene, sys.model(), x);
+  return r;
 }
 
 Result<std::vector<SimulationResult>> SimulateFrames(const SceneSpec& scene,

@@ -7,6 +7,7 @@
 
 #include "core/scene/scene.h"
 #include "core/sim/simulator.h"
+#include "core/sim/skin_pressure.h"
 
 namespace kgd {
 
@@ -28,10 +29,13 @@ struct SimulationResult {
   bool has_contact = false;
   double min_phi_m = 0, max_phi_m = 0;  // over vertices within the body field's support
   int inverted_faces = 0;               // faces whose normal turned > 90 degrees from the reference
+  // With contact and a body mesh (SimulateScene): the pressure on the skin per body vertex and its
+  // peak and 95th percentile (core/sim/skin_pressure.h). Empty pressure_Pa otherwise.
+  SkinPressure skin;
 };
 
 // Builds the model (and the body field only if contact is on), solves from the scene's initial
-// positions and summarizes. With friction its data are lagged at the start and updated once
+// positions and summarizes, with the skin pressure where the scene has contact and a body mesh. With friction its data are lagged at the start and updated once
 // (SolveLagged): the garment on the body presses on nothing, so the first pass is frictionless.
 Result<SimulationResult> SimulateScene(const SceneSpec& scene);
 
@@ -47,5 +51,9 @@ Result<std::vector<SimulationResult>> SimulateFrames(const SceneSpec& scene,
 // `reference` orients the faces for the inversion count: the garment on the body in the simulated pose
 // when the scene has one, else the initial positions.
 SimulationResult Summarize(GarmentSystem& system, const Positions& x, const Positions& reference, const SolveReport& report);
+
+// The skin pressure of the garment at x on the scene's body (its mesh `scene.body`, the field of the
+// system's model), or an empty one when the scene has no body mesh or the model no contact.
+SkinPressure SceneSkinPressure(const SceneSpec& scene, const GarmentModel& model, const Positions& x);
 
 }  // namespace kgd
