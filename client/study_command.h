@@ -1,6 +1,6 @@
-// `kgd study accuracy SCENE --out DIR`: what accuracy costs in time. Sweeps the knobs that trade one
-// for the other (solver tolerance per BESO iteration, method, relaxation, fold barrier, mesh
-// resolution) on a built-in scene and writes CSV, SVG plots and a generated ACCURACY.md.
+// `kgd study accuracy SCENE --out DIR`: the accuracy study of study/accuracy_study.h, its report
+// (CSV, SVG plots, a generated ACCURACY.md) written into DIR. `kgd machine`: the date, CPU model and
+// cores, the one line every generated table's header gives (study/machine.h).
 #pragma once
 
 #include <CLI/CLI.hpp>

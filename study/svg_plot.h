@@ -8,7 +8,7 @@
 
 #include "core/util/status.h"
 
-namespace kgd::cli {
+namespace kgd::study {
 
 struct PlotSeries {
   std::string name;
@@ -25,4 +25,4 @@ struct Plot {
 // Writes `plot` as an SVG of 720 x 440 px. Errors: the file cannot be written.
 Status WriteSvgPlot(const std::string& path, const Plot& plot);
 
-}  // namespace kgd::cli
+}  // namespace kgd::study

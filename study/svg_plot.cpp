@@ -1,4 +1,4 @@
-#include "client/svg_plot.h"
+#include "study/svg_plot.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <limits>
 #include <sstream>
 
-namespace kgd::cli {
+namespace kgd::study {
 namespace {
 
 constexpr double kWidth = 720, kHeight = 440, kLeft = 80, kRight = 190, kTop = 40, kBottom = 60;
@@ -135,4 +135,4 @@ Status WriteSvgPlot(const std::string& path, const Plot& plot) {
   return Status::Ok();
 }
 
-}  // namespace kgd::cli
+}  // namespace kgd::study
