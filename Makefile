@@ -72,16 +72,20 @@ fuzz: setup
 	  tests/kgd_fuzz --source $(CURDIR) --kgd client/kgd --server server/kgd-server --worker worker/kgd-worker \
 	  --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
 
+# Every benchmark; the tables Google Benchmark measures are written into docs/PERFORMANCE.md between
+# their markers (bench/tables.py, scripts/generated_block.py), headed by command, date and `kgd machine`.
 bench: build
 	bash bench/run.sh $(BUILD)
 
-# The design study of docs/RESULTS.md: all seven built-in scenes to the budget (about ten minutes).
+# The design study of docs/RESULTS.md: all seven built-in scenes to the budget (about ten minutes);
+# Table 1 and the curves written into docs/RESULTS.md between their markers (scripts/study_tables.py).
 study: build
 	bash scripts/design_study.sh $(BUILD)
 
 # What accuracy costs in time (docs/ACCURACY.md and its plots, generated): the arm-flexion design at seven
 # solver tolerances, two model variants, `precise` repeated, garment and body resolutions, three solver
-# methods, and the frames a design is evaluated over (about fifty minutes on two cores).
+# methods, and the frames a design is evaluated over (about fifty minutes on two cores); its header gives
+# the date and machine as `kgd machine` prints them.
 study-accuracy: build
 	$(BUILD)/client/kgd study accuracy arm_flexion --out $(BUILD)/study-accuracy --image-prefix images/accuracy/
 	mkdir -p docs/images/accuracy

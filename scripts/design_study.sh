@@ -2,10 +2,12 @@
 # The design study of docs/RESULTS.md: every built-in scene of the paper optimized with the paper's
 # settings (kgd design), then the final design beside a Line and an X of equal area (kgd baselines, for
 # the sleeves) and over the motion's frames (kgd evaluate). Long (about ten minutes on two cores); not
-# part of `make test`.
+# part of `make test`. With all seven scenes designed, writes Table 1 and the curves into docs/RESULTS.md
+# between their markers (scripts/study_tables.py, scripts/generated_block.py), headed by `kgd machine`.
 #   bash scripts/design_study.sh [BUILD_DIR] [OUT_DIR] [SCENE ...]
 set -euo pipefail
-source "$(dirname "$0")/study_scene.sh"
+root=$(cd "$(dirname "$0")/.." && pwd)
+source "$root/scripts/study_scene.sh"
 build=${1:-build}
 out=${2:-$build/study}
 shift $(( $# > 2 ? 2 : $# ))
@@ -15,7 +17,7 @@ if [ ${#scenes[@]} -eq 0 ]; then
 fi
 kgd="$build/client/kgd"
 mkdir -p "$out"
-date -u; nproc; lscpu | grep -E "Model name" || true
+"$kgd" machine
 failed=()
 for s in "${scenes[@]}"; do
   echo "== $s"
@@ -26,3 +28,11 @@ if [ ${#failed[@]} -gt 0 ]; then
   echo "failed: ${failed[*]}"
   exit 3
 fi
+for block in results-table-1 results-curves; do
+  if table=$(python3 "$root/scripts/study_tables.py" "$block" "$out"); then
+    printf '%s\n' "$table" | python3 "$root/scripts/generated_block.py" replace "$root/docs/RESULTS.md" "$block" \
+      --command "make study" --machine "$("$kgd" machine)"
+  else
+    echo "docs/RESULTS.md: $block not written (it needs the seven built-in scenes' files in $out)"
+  fi
+done
