@@ -10,8 +10,11 @@ results="$build/bench-results"
 mkdir -p "$results"
 rm -f "$results"/*.json
 "$build/client/kgd" machine
+# A benchmark program that fails leaves its tables as they were; the others are still written.
+failed=()
 for b in simulate body design; do
-  "$build/bench/${b}_benchmark" --benchmark_counters_tabular=true --benchmark_out="$results/$b.json" --benchmark_out_format=json "${@:2}"
+  "$build/bench/${b}_benchmark" --benchmark_counters_tabular=true --benchmark_out="$results/$b.json" --benchmark_out_format=json "${@:2}" ||
+    failed+=("${b}_benchmark")
 done
 for block in performance-simulator-cold performance-simulator-warm performance-design-engine performance-bodies; do
   if table=$(python3 "$root/bench/tables.py" "$block" "$results"/*.json); then
@@ -27,4 +30,8 @@ if [ -x /usr/bin/chromium ] && [ -d client/web/node_modules/playwright-core ]; t
   node bench/web_benchmark.mjs --kgd "$build/client/kgd"
 else
   echo "web_benchmark: skipped (needs Debian's chromium and npm ci --prefix client/web; scripts/setup.sh --browser installs both)"
+fi
+if [ ${#failed[@]} -gt 0 ]; then
+  echo "failed: ${failed[*]}"
+  exit 1
 fi

@@ -34,8 +34,12 @@ def load(paths):
     """Benchmark name (without /iterations:N, /real_time) -> list of its runs (dicts)."""
     runs = {}
     for p in paths:
-        with open(p) as f:
-            data = json.load(f, object_pairs_hook=keep_runs)
+        try:
+            with open(p) as f:
+                data = json.load(f, object_pairs_hook=keep_runs)
+        except ValueError as e:  # a benchmark program that died wrote half a file
+            print(f"bench/tables.py: {p}: {e}", file=sys.stderr)
+            continue
         for b in data.get("benchmarks", []):
             if b.get("run_type", "iteration") != "iteration" or b.get("error_occurred"):
                 continue

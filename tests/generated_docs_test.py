@@ -128,7 +128,9 @@ class DocsHoldTheirBlocks(unittest.TestCase):
 
 
 class BenchTables(unittest.TestCase):
-    def run_tables(self, block, benchmarks):
+    def run_tables(self, block, benchmarks, half_file=False):
+        with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as half:
+            half.write('{"benchmarks": [{"name": "BM_NewtonCold/reinforced:0/tol_exp:4/project:1", "real_t')
         with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
             # Google Benchmark writes its own "iterations" before a counter of the same name.
             f.write('{"benchmarks": [' + ", ".join(
@@ -136,10 +138,11 @@ class BenchTables(unittest.TestCase):
                     name, loops, ms, "".join(f', "{k}": {json.dumps(v)}' for k, v in counters.items()))
                 for name, loops, ms, counters in benchmarks) + "]}")
         try:
-            return subprocess.run([sys.executable, os.path.join(SOURCE, "bench/tables.py"), block, f.name],
-                                  capture_output=True, text=True)
+            return subprocess.run([sys.executable, os.path.join(SOURCE, "bench/tables.py"), block, f.name]
+                                  + ([half.name] if half_file else []), capture_output=True, text=True)
         finally:
             os.unlink(f.name)
+            os.unlink(half.name)
 
     def cold(self):
         rows = []
@@ -156,6 +159,11 @@ class BenchTables(unittest.TestCase):
         self.assertEqual(r.returncode, 0, r.stderr)
         self.assertIn("| cloth | 1e-4 | 0.61 s, 12 iterations, E = 0.0210708 J | 9.20 s, 2,812 iterations, E = 0.0210694 J | 15x |",
                       r.stdout)
+        self.assertEqual(len(r.stdout.splitlines()), 6)
+
+    def test_the_half_file_of_a_program_that_died_is_passed_over(self):
+        r = self.run_tables("performance-simulator-cold", self.cold(), half_file=True)
+        self.assertEqual(r.returncode, 0, r.stderr)
         self.assertEqual(len(r.stdout.splitlines()), 6)
 
     def test_warm_steps_are_the_loop_iterations(self):
