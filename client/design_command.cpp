@@ -305,9 +305,9 @@ int RunEvaluate(const std::string& path, int k, bool json) {
   j["iteration"] = sd->iteration;
   j["frames"] = nlohmann::json::array();
   if (!json)
-    std::printf("design of iteration %d (%.1f%% reinforced) over %zu frame%s\n%6s %12s %12s %14s %14s %7s\n", sd->iteration,
+    std::printf("design of iteration %d (%.1f%% reinforced) over %zu frame%s\n%6s %12s %12s %14s %14s %7s %9s %9s\n", sd->iteration,
                 100 * sd->file.iterations[sd->iteration].area_fraction, a.size(), a.size() == 1 ? "" : "s", "frame", "energy_J",
-                "reinf_J", "density_J/m2", "full_J/m2", "ratio");
+                "reinf_J", "density_J/m2", "full_J/m2", "ratio", "peak_kPa", "p95_kPa");
   for (size_t f = 0; f < a.size(); ++f) {
     converged &= a[f].solve.at_equilibrium() && b[f].solve.at_equilibrium();
     const double ratio = b[f].reinforced_density_J_per_m2 > 0 ? a[f].reinforced_density_J_per_m2 / b[f].reinforced_density_J_per_m2 : 0;
@@ -320,8 +320,9 @@ int RunEvaluate(const std::string& path, int k, bool json) {
                              {"full_reinforced_density_J_per_m2", b[f].reinforced_density_J_per_m2},
                              {"density_ratio", ratio}});
     } else {
-      std::printf("%6zu %12.6g %12.6g %14.6g %14.6g %7.3f%s\n", f + 1, a[f].solve.energy_J, a[f].reinforced_energy_J,
-                  a[f].reinforced_density_J_per_m2, b[f].reinforced_density_J_per_m2, ratio, a[f].solve.at_equilibrium() ? "" : "  (not converged)");
+      std::printf("%6zu %12.6g %12.6g %14.6g %14.6g %7.3f %9.3g %9.3g%s\n", f + 1, a[f].solve.energy_J, a[f].reinforced_energy_J,
+                  a[f].reinforced_density_J_per_m2, b[f].reinforced_density_J_per_m2, ratio, 1e-3 * a[f].skin.peak_Pa,
+                  1e-3 * a[f].skin.p95_Pa, a[f].solve.at_equilibrium() ? "" : "  (not converged)");
     }
   }
   if (json) std::printf("%s\n", j.dump().c_str());
@@ -332,6 +333,12 @@ int RunBaselines(const std::string& path, int k, double angle_deg, bool angle_gi
   Result<StoredDesign> sd = LoadStoredDesign(path, k);
   if (!sd.ok()) return Fail("baselines", sd.message());
   const DesignFileHeader& h = sd->file.header;
+      if (a[f].skin.pressure_Pa.size()) {
+        j["frames"].back()["peak_pressure_Pa"] = a[f].skin.peak_Pa;
+        j["frames"].back()["p95_pressure_Pa"] = a[f].skin.p95_Pa;
+        j["frames"].back()["full_peak_pressure_Pa"] = b[f].skin.peak_Pa;
+        j["frames"].back()["full_p95_pressure_Pa"] = b[f].skin.p95_Pa;
+      }
   Result<DesignFile> first = ReadDesignFile(path, {.arrays = true, .only_iteration = 0});
   if (!first.ok()) return Fail("baselines", first.message());
   const Result<BaselineComparison> cmp =

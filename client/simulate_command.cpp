@@ -67,6 +67,13 @@ nlohmann::json ResultJson(const SceneSpec& scene, const SimulationResult& r) {
     j["min_phi_m"] = r.min_phi_m;
     j["max_phi_m"] = r.max_phi_m;
   }
+  if (r.skin.pressure_Pa.size()) {
+    j["peak_pressure_Pa"] = r.skin.peak_Pa;
+    j["p95_pressure_Pa"] = r.skin.p95_Pa;
+    j["peak_pressure_body_vertex"] = r.skin.peak_vertex;
+    j["pressed_body_vertices"] = r.skin.loaded_vertices;
+    j["contact_normal_force_N"] = r.skin.normal_force_N;
+  }
   return j;
 }
 
@@ -159,6 +166,10 @@ void PrintHuman(const SceneSpec& scene, const SimulationResult& r) {
   if (r.has_contact)
     std::printf("distance to body      min %.3g mm, max %.3g mm (IMLS field, where defined)\n", 1e3 * r.min_phi_m,
                 1e3 * r.max_phi_m);
+  if (r.skin.pressure_Pa.size())
+    std::printf("skin pressure         peak %.3g kPa (%.3g mmHg) at body vertex %d, p95 %.3g kPa (%.3g mmHg) over the %d body vertices pressed; normal force %.4g N\n",
+                1e-3 * r.skin.peak_Pa, kMmHgPerPa * r.skin.peak_Pa, r.skin.peak_vertex, 1e-3 * r.skin.p95_Pa, kMmHgPerPa * r.skin.p95_Pa,
+                r.skin.loaded_vertices, r.skin.normal_force_N);
   if (r.inverted_faces > 0) std::printf("inverted faces        %d\n", r.inverted_faces);
 }
 
@@ -186,8 +197,8 @@ int RunFrames(const SimulateOptions& o, const SceneSpec& scene) {
     return 2;
   }
   if (!o.json)
-    std::printf("%-6s %-14s %-16s %-14s %-10s %-9s %-10s %s\n", "frame", "status", "energy_J", "reinforced_J", "min_phi_mm",
-                "inverted", "seconds", "iterations");
+    std::printf("%-6s %-14s %-16s %-14s %-10s %-9s %-9s %-9s %-10s %s\n", "frame", "status", "energy_J", "reinforced_J", "min_phi_mm",
+                "inverted", "peak_kPa", "p95_kPa", "seconds", "iterations");
   Result<std::vector<SimulationResult>> r = SimulateFrames(scene, [&](int k, const SimulationResult& fr) {
     all_converged &= fr.solve.at_equilibrium();
     if (o.json) {
@@ -195,8 +206,9 @@ int RunFrames(const SimulateOptions& o, const SceneSpec& scene) {
       j["frame"] = k + 1;
       frames.push_back(j);
     } else {
-      std::printf("%-6d %-14s %-16.9g %-14.6g %-10.3g %-9d %-10.3f %d\n", k + 1, ToString(fr.solve.status), fr.solve.energy_J,
-                  fr.reinforced_energy_J, 1e3 * fr.min_phi_m, fr.inverted_faces, fr.solve.seconds, fr.solve.iterations);
+      std::printf("%-6d %-14s %-16.9g %-14.6g %-10.3g %-9d %-9.3g %-9.3g %-10.3f %d\n", k + 1, ToString(fr.solve.status), fr.solve.energy_J,
+                  fr.reinforced_energy_J, 1e3 * fr.min_phi_m, fr.inverted_faces, 1e-3 * fr.skin.peak_Pa, 1e-3 * fr.skin.p95_Pa,
+                  fr.solve.seconds, fr.solve.iterations);
       std::fflush(stdout);
     }
     if (!o.out.empty() && write_status.ok()) write_status = WriteResultPly(FramePath(o.out, k), scene, fr);

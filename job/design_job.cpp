@@ -112,7 +112,8 @@ Result<DesignEvaluation> EvaluateDesign(const DesignJob& job, const BesoIteratio
     if (!frames.ok()) return frames.status().WithContext("evaluate over the motion: ");
     for (size_t k = 0; k < frames->size(); ++k) {
       const SimulationResult& r = (*frames)[k];
-      e.frames.push_back({r.positions, body ? scene.motion->frames[k] : Positions(), r.face_density_Pa, r.solve.energy_J, ToString(r.solve.status)});
+      e.frames.push_back({r.positions, body ? scene.motion->frames[k] : Positions(), r.face_density_Pa, r.solve.energy_J, ToString(r.solve.status),
+                          body ? r.skin.pressure_Pa : Eigen::VectorXd()});
     }
   } else {
     notes.push_back("no motion frames: the scene has one pose");

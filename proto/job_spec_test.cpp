@@ -320,3 +320,26 @@ TEST(Records, IterationsRoundTripBitForBit) {
 
 }  // namespace
 }  // namespace kgd
+// The skin pressure of an evaluation's frames (one value per body vertex) survives its message, and
+// a frame whose pressure does not match its body is refused by name.
+TEST(Records, AnEvaluationsSkinPressureSurvivesItsMessage) {
+  DesignEvaluation e;
+  e.iteration = 3;
+  for (int k = 0; k < 2; ++k) {
+    EvaluatedFrame f;
+    f.garment = Positions::Random(5, 3);
+    f.body = Positions::Random(4, 3);
+    f.energy_density_Pa = Eigen::VectorXd::Random(2);
+    f.skin_pressure_Pa = Eigen::Vector4d(0, 1234.5 + k, 0, 2.5e3);
+    e.frames.push_back(f);
+  }
+  v1::DesignEvaluation p = EvaluationToProto(e);
+  Result<DesignEvaluation> back = EvaluationFromProto(p, 2, 5, 4);
+  ASSERT_TRUE(back.ok()) << back.message();
+  for (int k = 0; k < 2; ++k) EXPECT_TRUE(back->frames[k].skin_pressure_Pa == e.frames[k].skin_pressure_Pa) << k;
+  p.mutable_frames(1)->mutable_skin_pressure_pa()->RemoveLast();
+  const Result<DesignEvaluation> bad = EvaluationFromProto(p, 2, 5, 4);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.message().find("evaluation frame 2: skin_pressure_Pa has 3 values for 4 body vertices"), std::string::npos) << bad.message();
+}
+

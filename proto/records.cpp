@@ -228,13 +228,18 @@ Result<DesignEvaluation> EvaluationFromProto(const v1::DesignEvaluation& p, int 
     const v1::MotionFrame& m = p.frames(k);
     const std::string what = "evaluation frame " + std::to_string(k + 1);
     Result<Positions> x = PositionsFrom(m.positions(), vertices, what + " positions");
+    Append(f.skin_pressure_Pa.data(), f.skin_pressure_Pa.size(), m->mutable_skin_pressure_pa());
     Result<Positions> body = PositionsFrom(m.body_vertices(), m.body_vertices_size() ? body_vertices : 0, what + " body_vertices");
     if (!x.ok()) return x.status();
     if (!body.ok()) return body.status();
     if (faces > 0 && m.energy_density_pa_size() != faces) return Status::Error(what + ": energy_density_Pa does not match the faces");
     if (k > 0 && (x->rows() != e.frames[0].garment.rows() || body->rows() != e.frames[0].body.rows()))
       return Status::Error(what + ": differs in size from frame 1");
-    e.frames.push_back({std::move(x).value(), std::move(body).value(), ToVector(m.energy_density_pa()), m.energy_j(), m.solve_status()});
+    if (m.skin_pressure_pa_size() && m.skin_pressure_pa_size() != body->rows())
+      return Status::Error(what + ": skin_pressure_Pa has " + std::to_string(m.skin_pressure_pa_size()) + " values for " +
+                           std::to_string(body->rows()) + " body vertices");
+    e.frames.push_back({std::move(x).value(), std::move(body).value(), ToVector(m.energy_density_pa()), m.energy_j(), m.solve_status(),
+                        ToVector(m.skin_pressure_pa())});
   }
   for (const v1::BaselineRecord& r : p.baselines()) {
     const std::string what = "evaluation baseline '" + r.name() + "'";

@@ -339,11 +339,11 @@ void HttpGateway::Impl::Routes() {
   http.Get(R"(/v1/jobs/([^/:]+)/evaluation)", [this](const httplib::Request& req, httplib::Response& res) {
     v1::DesignEvaluation e;
     if (!Evaluation(req, res, &e)) return;
-    for (v1::MotionFrame& f : *e.mutable_frames()) f.clear_positions(), f.clear_body_vertices(), f.clear_energy_density_pa();
+    for (v1::MotionFrame& f : *e.mutable_frames()) f.clear_positions(), f.clear_body_vertices(), f.clear_energy_density_pa(), f.clear_skin_pressure_pa();
     for (v1::BaselineRecord& b : *e.mutable_baselines()) b.clear_positions(), b.clear_energy_density_pa(), b.clear_design();
     SetMessage(res, e);
   });
-  http.Get(R"(/v1/jobs/([^/:]+)/evaluation/frames/([^/]+)/(positions\.f32|body\.f32|energy\.f32))",
+  http.Get(R"(/v1/jobs/([^/:]+)/evaluation/frames/([^/]+)/(positions\.f32|body\.f32|energy\.f32|pressure\.f32))",
            [this](const httplib::Request& req, httplib::Response& res) {
              v1::DesignEvaluation e;
              if (!Evaluation(req, res, &e)) return;
@@ -357,6 +357,12 @@ void HttpGateway::Impl::Routes() {
              if (req.matches[3] == "body.f32") {
                if (f.body_vertices_size() == 0) return SetError(res, 404, ServiceCode::kNotFound, "the evaluation has no body");
                return res.set_content(LittleEndianBytes(std::vector<float>(f.body_vertices().begin(), f.body_vertices().end())),
+                                      "application/octet-stream");
+             }
+             if (req.matches[3] == "pressure.f32") {  // Pa per body vertex
+               if (f.skin_pressure_pa_size() == 0)
+                 return SetError(res, 404, ServiceCode::kNotFound, "the evaluation has no skin pressure (no body or no contact)");
+               return res.set_content(LittleEndianBytes(std::vector<float>(f.skin_pressure_pa().begin(), f.skin_pressure_pa().end())),
                                       "application/octet-stream");
              }
              v1::GetIterationResponse it;

@@ -66,10 +66,12 @@ Status WriteDesignEvaluation(const std::string& path, const DesignEvaluation& e)
   const hsize_t nv = k ? e.frames[0].garment.rows() : b ? e.baselines[0].positions.rows() : 0;
   const hsize_t nf = k ? e.frames[0].energy_density_Pa.size() : b ? e.baselines[0].design.size() : 0;
   const hsize_t nb = k ? e.frames[0].body.rows() : 0;
+  const hsize_t np = k ? e.frames[0].skin_pressure_Pa.size() : 0;
   for (const EvaluatedFrame& f : e.frames)
     if (static_cast<hsize_t>(f.garment.rows()) != nv || static_cast<hsize_t>(f.energy_density_Pa.size()) != nf ||
-        static_cast<hsize_t>(f.body.rows()) != nb)
+        static_cast<hsize_t>(f.body.rows()) != nb || static_cast<hsize_t>(f.skin_pressure_Pa.size()) != np)
       return Fail(path, "evaluation frames differ in size");
+  if (np > 0 && np != nb) return Fail(path, "the skin pressure has " + std::to_string(np) + " values for " + std::to_string(nb) + " body vertices");
   for (const EvaluatedBaseline& s : e.baselines)
     if (static_cast<hsize_t>(s.positions.rows()) != nv || s.design.size() != nf || static_cast<hsize_t>(s.energy_density_Pa.size()) != nf)
       return Fail(path, "evaluation baselines differ in size");
@@ -93,6 +95,10 @@ Status WriteDesignEvaluation(const std::string& path, const DesignEvaluation& e)
       if (ok && nb > 0) {
         const std::vector<double> body = Stack(k, [&](size_t i) -> const Positions& { return e.frames[i].body; });
         ok = WriteFixed(g, "body", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {k, nb, 3}, body.data());
+      }
+      if (ok && np > 0) {
+        const std::vector<double> p = Stack(k, [&](size_t i) -> const Eigen::VectorXd& { return e.frames[i].skin_pressure_Pa; });
+        ok = WriteFixed(g, "skin_pressure_Pa", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {k, np}, p.data());
       }
       if (ok) {
         Id set(H5Dopen2(g, "energy_J", H5P_DEFAULT), H5Dclose);
@@ -153,20 +159,23 @@ Result<DesignEvaluation> ReadDesignEvaluation(const std::string& path) {
     return Fail(path, "the evaluation's attributes are missing");
   if (H5Lexists(file, "frames", H5P_DEFAULT) > 0) {
     Id g(H5Gopen2(file, "frames", H5P_DEFAULT), H5Gclose);
-    const std::vector<hsize_t> xs = Shape(g, "positions"), ws = Shape(g, "energy_density_Pa"), es = Shape(g, "energy_J"), bs = Shape(g, "body");
-    if (xs.size() != 3 || ws.size() != 2 || es.size() != 1 || ws[0] != xs[0] || es[0] != xs[0] || (!bs.empty() && (bs.size() != 3 || bs[0] != xs[0])))
+    const std::vector<hsize_t> xs = Shape(g, "positions"), ws = Shape(g, "energy_density_Pa"), es = Shape(g, "energy_J"), bs = Shape(g, "body"),
+                               ps = Shape(g, "skin_pressure_Pa");
+    if (xs.size() != 3 || ws.size() != 2 || es.size() != 1 || ws[0] != xs[0] || es[0] != xs[0] || (!bs.empty() && (bs.size() != 3 || bs[0] != xs[0])) ||
+        (!ps.empty() && (bs.empty() || ps != std::vector<hsize_t>{xs[0], bs[1]})))
       return Fail(path, "/frames datasets are missing or have inconsistent shapes");
-    const size_t k = xs[0], nv = xs[1], nf = ws[1], nb = bs.empty() ? 0 : bs[1];
-    std::vector<double> x(k * nv * 3), w(k * nf), energy(k), body(k * nb * 3);
+    const size_t k = xs[0], nv = xs[1], nf = ws[1], nb = bs.empty() ? 0 : bs[1], np = ps.empty() ? 0 : ps[1];
+    std::vector<double> x(k * nv * 3), w(k * nf), energy(k), body(k * nb * 3), pressure(k * np);
     std::string status;
     Id set(H5Dopen2(g, "energy_J", H5P_DEFAULT), H5Dclose);
     if (!ReadAll(g, "positions", H5T_NATIVE_DOUBLE, x.data()) || !ReadAll(g, "energy_density_Pa", H5T_NATIVE_DOUBLE, w.data()) ||
         !ReadAll(g, "energy_J", H5T_NATIVE_DOUBLE, energy.data()) || (nb && !ReadAll(g, "body", H5T_NATIVE_DOUBLE, body.data())) ||
+        (np && !ReadAll(g, "skin_pressure_Pa", H5T_NATIVE_DOUBLE, pressure.data())) ||
         !set.ok() || !ReadStringAttribute(set, "status", &status))
       return Fail(path, "cannot read /frames (damaged?)");
     const std::vector<std::string> statuses = SplitLines(status, k);
     for (size_t i = 0; i < k; ++i)
-      e.frames.push_back({RowsOf(x, i, nv), RowsOf(body, i, nb), SliceOf(w, i, nf), energy[i], statuses[i]});
+      e.frames.push_back({RowsOf(x, i, nv), RowsOf(body, i, nb), SliceOf(w, i, nf), energy[i], statuses[i], SliceOf(pressure, i, np)});
   }
   if (H5Lexists(file, "baselines", H5P_DEFAULT) > 0) {
     Id g(H5Gopen2(file, "baselines", H5P_DEFAULT), H5Gclose);

@@ -10,6 +10,8 @@
 //   /frames/body               (K,Vb,3) float64, m: the body in each frame (faces: the design file's /body)
 //   /frames/energy_density_Pa  (K,F) float64
 //   /frames/energy_J           (K) float64; attr status: the solves' statuses, one per line
+//   /frames/skin_pressure_Pa   (K,Vb) float64, Pa: the garment's contact pressure per body vertex in each
+//                              frame (core/sim/skin_pressure.h; optional: absent without a body or contact)
 //   /baselines/design          (B,F) uint8; attr names: "line", "x", one per line
 //   /baselines/positions       (B,V,3) float64, m
 //   /baselines/energy_density_Pa (B,F) float64
@@ -33,6 +35,7 @@ struct EvaluatedFrame {
   Eigen::VectorXd energy_density_Pa; // per face
   double energy_J = 0;
   std::string status;                // the solve's status ("converged", ...)
+  Eigen::VectorXd skin_pressure_Pa;  // per body vertex (Pa); empty when the scene has no body or contact
 };
 
 struct EvaluatedBaseline {

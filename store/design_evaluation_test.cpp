@@ -31,7 +31,11 @@ DesignEvaluation Sample(int frames, int baselines, int vertices = 7, int faces =
   DesignEvaluation e;
   e.iteration = 42;
   e.note = frames ? "" : "no motion frames: the scene has one pose";
-  for (int k = 0; k < frames; ++k) e.frames.push_back({positions(vertices), positions(body), field(), 0.1 * (k + 1), k % 2 ? "converged" : "stalled"});
+  for (int k = 0; k < frames; ++k) {
+    Eigen::VectorXd pressure(body);
+    for (int j = 0; j < body; ++j) pressure[j] = j % 2 ? 0.0 : 2e3 * (1 + u(rng));
+    e.frames.push_back({positions(vertices), positions(body), field(), 0.1 * (k + 1), k % 2 ? "converged" : "stalled", pressure});
+  }
   const char* names[] = {"line", "x"};
   for (int b = 0; b < baselines; ++b) {
     EvaluatedBaseline s;
@@ -56,6 +60,7 @@ void ExpectSame(const DesignEvaluation& a, const DesignEvaluation& b) {
     EXPECT_TRUE(a.frames[k].energy_density_Pa == b.frames[k].energy_density_Pa) << k;
     EXPECT_EQ(a.frames[k].energy_J, b.frames[k].energy_J);
     EXPECT_EQ(a.frames[k].status, b.frames[k].status);
+    EXPECT_TRUE(a.frames[k].skin_pressure_Pa == b.frames[k].skin_pressure_Pa) << k;
   }
   ASSERT_EQ(a.baselines.size(), b.baselines.size());
   for (size_t i = 0; i < a.baselines.size(); ++i) {
@@ -81,8 +86,25 @@ TEST(DesignEvaluation, RoundTripsBitForBit) {
     Result<DesignEvaluation> back = ReadDesignEvaluation(path);
     ASSERT_TRUE(back.ok()) << back.message();
     ExpectSame(*back, e);
+    // Without skin pressure (no contact), the frames read back without it.
+    DesignEvaluation bare = e;
+    for (EvaluatedFrame& f : bare.frames) f.skin_pressure_Pa.resize(0);
+    ASSERT_TRUE(WriteDesignEvaluation(path, bare).ok());
+    back = ReadDesignEvaluation(path);
+    ASSERT_TRUE(back.ok()) << back.message();
+    ExpectSame(*back, bare);
     std::filesystem::remove(path);
   }
+}
+
+TEST(DesignEvaluation, ASkinPressureThatIsNotOnePerBodyVertexIsRefused) {
+  DesignEvaluation e = Sample(3, 0);
+  for (EvaluatedFrame& f : e.frames) f.skin_pressure_Pa.conservativeResize(3);
+  const std::string path = TempPath("bad_pressure.evaluation.h5");
+  const Status st = WriteDesignEvaluation(path, e);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("3 values for 4 body vertices"), std::string::npos) << st.message();
+  EXPECT_FALSE(std::filesystem::exists(path));
 }
 
 TEST(DesignEvaluation, LivesBesideTheDesignFile) {

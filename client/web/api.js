@@ -77,6 +77,7 @@ export const evaluation = (id) => getJson(`/v1/jobs/${id}/evaluation`);
 export const framePositions = (id, k) => getFloat32(`/v1/jobs/${id}/evaluation/frames/${k}/positions.f32`);
 export const frameBody = (id, k) => getFloat32(`/v1/jobs/${id}/evaluation/frames/${k}/body.f32`);
 export const frameEnergy = (id, k) => getFloat32(`/v1/jobs/${id}/evaluation/frames/${k}/energy.f32`);
+export const framePressure = (id, k) => getFloat32(`/v1/jobs/${id}/evaluation/frames/${k}/pressure.f32`);  // Pa per body vertex
 export const baselinePositions = (id, name) => getFloat32(`/v1/jobs/${id}/evaluation/baselines/${name}/positions.f32`);
 export const baselineDesign = (id, name) => getUint8(`/v1/jobs/${id}/evaluation/baselines/${name}/design.u8`);
 export const baselineEnergy = (id, name) => getFloat32(`/v1/jobs/${id}/evaluation/baselines/${name}/energy.f32`);

@@ -23,6 +23,16 @@ window.kgd = { state, view, charts, rendered: 0 };
 
 function status(text) { $('server-status').textContent = text; }
 
+// Pa per mmHg (reports give compression in mmHg: class I 18-21, class II 23-32).
+const MMHG_PA = 133.322387415;
+
+// Peak and 95th percentile (nearest rank) over the pressed body vertices (p > 0), as kgd reports them.
+function pressureFigures(p) {
+  const s = [...p].filter((v) => v > 0).sort((a, b) => a - b);
+  if (!s.length) return { peak: 0, p95: 0 };
+  return { peak: s[s.length - 1], p95: s[Math.ceil(0.95 * s.length) - 1] };
+}
+
 // -- Submit --------------------------------------------------------------------------------------------
 
 function budgetOf(spec) {
@@ -253,6 +263,8 @@ function target() {
   if (e && compare !== 'optimized') return { kind: 'baseline', name: compare };
   const k = Number($('frame').value);
   if (e && state.useFrame && e.frames?.length) return { kind: 'frame', k };
+  // Skin pressure is computed for the final design over the motion: the frame chosen there.
+  if (e && e.frames?.length && $('color-mode').value === 'pressure') return { kind: 'frame', k };
   return { kind: 'iteration', n: Number($('scrub').value) };
 }
 
@@ -261,9 +273,10 @@ async function fetchTarget(id, t, mode) {
   if (t.kind === 'iteration')
     return { x: await api.positions(id, t.n), values: await (mode === 'energy' ? api.energy(id, t.n) : api.design(id, t.n)), body: null };
   if (t.kind === 'frame') {
-    const [x, values, body] = await Promise.all([api.framePositions(id, t.k), mode === 'energy' ? api.frameEnergy(id, t.k) : api.design(id, e.iteration),
-      state.meshes.body ? api.frameBody(id, t.k) : Promise.resolve(null)]);
-    return { x, values, body };
+    const [x, values, body, pressure] = await Promise.all([api.framePositions(id, t.k), mode === 'energy' ? api.frameEnergy(id, t.k) : api.design(id, e.iteration),
+      state.meshes.body ? api.frameBody(id, t.k) : Promise.resolve(null),
+      mode === 'pressure' && state.meshes.body ? api.framePressure(id, t.k).catch(() => null) : Promise.resolve(null)]);
+    return { x, values, body, pressure };
   }
   return { x: await api.baselinePositions(id, t.name), values: await (mode === 'energy' ? api.baselineEnergy(id, t.name) : api.baselineDesign(id, t.name)), body: null };
 }
@@ -272,7 +285,9 @@ function describe(t) {
   const e = state.evaluation;
   if (t.kind === 'frame') {
     const f = e.frames[t.k - 1];
-    return `final design (iteration ${e.iteration}) in motion frame ${t.k} of ${e.frames.length}: energy ${(f.energyJ ?? 0).toPrecision(4)} J (${f.solveStatus})`;
+    const p = state.pressureFigures;
+    const skin = p ? `; skin pressure peak ${(p.peak / 1e3).toPrecision(3)} kPa (${(p.peak / MMHG_PA).toPrecision(3)} mmHg), p95 ${(p.p95 / 1e3).toPrecision(3)} kPa (${(p.p95 / MMHG_PA).toPrecision(3)} mmHg)` : '';
+    return `final design (iteration ${e.iteration}) in motion frame ${t.k} of ${e.frames.length}: energy ${(f.energyJ ?? 0).toPrecision(4)} J (${f.solveStatus})${skin}`;
   }
   if (t.kind === 'baseline') {
     const b = e.baselines.find((x) => x.name === t.name);
@@ -291,15 +306,22 @@ async function show() {
     if (await ensureMeshes(id)) {
       const mode = $('color-mode').value;
       const t = target();
-      const { x, values, body } = await fetchTarget(id, t, mode);
+      const { x, values, body, pressure } = await fetchTarget(id, t, mode);
       if (state.selected === id) {
         let max = 0;
         if (mode === 'energy') { const s = [...values].sort((a, b) => a - b); max = s[Math.floor(0.98 * (s.length - 1))] || 0; }
         view.setBodyPose(body);
-        view.update(x, mode, values, max);
-        $('colorbar').hidden = mode !== 'energy';
-        $('colorbar-max').textContent = `≥ ${max.toPrecision(3)}`;
+        state.pressureFigures = pressure ? pressureFigures(pressure) : null;
+        // Skin pressure: the body coloured up to the peak, the garment by its design.
+        view.setBodyPressure(pressure || null, state.pressureFigures?.peak || 0);
+        if (pressure) view.showBody(true);
+        else view.showBody($('show-body').checked);
+        view.update(x, mode === 'pressure' ? 'design' : mode, values, max);
+        $('colorbar').hidden = mode !== 'energy' && !pressure;
+        $('colorbar-max').textContent = pressure ? `${(state.pressureFigures.peak / 1e3).toPrecision(3)}` : `≥ ${max.toPrecision(3)}`;
         $('colorbar-min').textContent = '0';
+        $('colorbar-unit').textContent = pressure ? 'kPa' : 'J/m²';
+        if (mode === 'pressure' && !pressure) status(state.evaluation ? 'this job has no skin pressure (no body or no contact)' : 'skin pressure: shown once the job has finished and its design was evaluated over the motion');
         state.shown = t.kind === 'iteration' ? t.n : state.evaluation.iteration;
         state.target = t;
         window.kgd.rendered++;

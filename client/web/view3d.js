@@ -1,5 +1,5 @@
 // The garment on the body in 3D: three.js, orbit controls, the garment coloured per face by its
-// design or by its energy per area, the body semi-transparent.
+// design or by its energy per area, the body semi-transparent or coloured by skin pressure.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
@@ -82,6 +82,30 @@ export class GarmentView {
   }
 
   showBody(on) { if (this.body) { this.body.visible = on; this.render(); } }
+
+  // The body coloured per vertex by skin pressure (Float32Array, Pa, with max), opaque; null: plain and
+  // semi-transparent.
+  setBodyPressure(pressure, max) {
+    if (!this.body) return;
+    const g = this.body.geometry, m = this.body.material;
+    if (!pressure) {
+      Object.assign(m, { vertexColors: false, opacity: 0.3, transparent: true, depthWrite: false });
+      m.color.set(0xd9b38c);
+    } else {
+      const n = pressure.length;
+      if (!g.attributes.color || g.attributes.color.count !== n) g.setAttribute('color', new THREE.BufferAttribute(new Float32Array(3 * n), 3));
+      const c = g.attributes.color.array;
+      for (let v = 0; v < n; ++v) {
+        if (pressure[v] > 0) colormap(max > 0 ? pressure[v] / max : 0, c, 3 * v);
+        else { c[3 * v] = 0.85; c[3 * v + 1] = 0.7; c[3 * v + 2] = 0.55; }  // untouched skin
+      }
+      g.attributes.color.needsUpdate = true;
+      Object.assign(m, { vertexColors: true, opacity: 1, transparent: false, depthWrite: true });
+      m.color.set(0xffffff);
+    }
+    m.needsUpdate = true;
+    this.render();
+  }
 
   // x: Float32Array (V x 3); values per face: design bits (Uint8Array) or energies (Float32Array, with max).
   update(x, mode, values, max) {
