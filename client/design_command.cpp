@@ -62,6 +62,13 @@ int Fail(const char* command, const std::string& message, int code = 2) {
   return code;
 }
 
+// One line per motion of a scene with several: role, weight, reinforced energy and density ratio.
+void PrintMotions(const BesoIteration& it) {
+  for (const MotionMetrics& m : it.motions)
+    std::printf("  motion %-16s %-6s weight %-5.3g reinforced energy %.4g J, density ratio %.3f\n", m.name.c_str(), ToString(m.role), m.weight,
+                m.reinforced_energy_J, m.density_ratio);
+}
+
 int RunDesign(const DesignOptions& o) {
   const bool resume = !o.resume.empty();
   const v1::OptimizerSettings optimizer = ToProto(o.optimizer);
@@ -208,6 +215,7 @@ int RunDesign(const DesignOptions& o) {
   if (o.json || !bar) {
     nlohmann::ordered_json j{{"event", "done"}, {"file", path}, {"iterations", end.iteration + 1}, {"area_fraction", end.area_fraction},
                              {"density_ratio", end.density_ratio}, {"seconds", elapsed}, {"end", why}};
+    j["motions"] = MotionsJson(end.motions);
     if (!resume) j["predicted_s"] = predicted_s, j["machine_factor"] = machine.factor, j["machine_factor_jobs"] = machine.jobs;
     if (!evaluation_path.empty()) j["evaluation"] = evaluation_path;
     std::printf("%s\n", j.dump().c_str());
@@ -217,6 +225,7 @@ int RunDesign(const DesignOptions& o) {
     std::printf("done: %d iterations (%s), area %.1f%%, reinforced energy density %.4g J/m^2 = %.3f x fully reinforced, %s; wrote %s\n",
                 end.iteration + 1, why.c_str(), 100 * end.area_fraction, end.reinforced_density_J_per_m2, end.density_ratio,
                 Duration(elapsed).c_str(), path.c_str());
+    if (end.motions.size() > 1) PrintMotions(end);
   }
   if (!evaluation_path.empty() && bar) std::printf("evaluation (the design over the motion, Line and X beside it): %s\n", evaluation_path.c_str());
   return 0;
@@ -252,6 +261,10 @@ int RunDesigns(const std::string& path, bool json) {
                 100 * it.target_area_m2 / h.rest_area_m2.sum(), it.energy_J, it.reinforced_energy_J, it.reinforced_density_J_per_m2,
                 it.density_ratio, it.solver_iterations, it.simulation_s, it.total_s);
     total += it.total_s;
+  }
+  if (!f->iterations.empty() && f->iterations.back().motions.size() > 1) {
+    std::printf("motions at iteration %d:\n", f->iterations.back().iteration);
+    PrintMotions(f->iterations.back());
   }
   const BesoEnd end = BesoEndOf(f->iterations, h.settings, h.rest_area_m2.sum());
   std::printf("%zu iterations, %s; %s\n", f->iterations.size(), Duration(total).c_str(),

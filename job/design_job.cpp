@@ -59,6 +59,7 @@ Result<DesignJob> NewDesignJob(SceneSpec scene, const v1::OptimizerSettings& opt
   job.header.cloth_thickness_m = scene.cloth.thickness_m;
   job.header.reinforced_thickness_m = scene.reinforced.thickness_m;
   if (scene.body) job.header.body_mesh = *scene.body;
+  job.header.motions = MotionsOfJob(scene, *settings);
   job.scene = std::move(scene);
   return job;
 }

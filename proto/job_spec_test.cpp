@@ -279,10 +279,10 @@ TEST(JobSpec, EverySettingHasItsFieldInTheSchema) {
 TEST(Records, EveryMetricHasItsFieldInTheSchema) {
   const Status st = CheckMetricFields();
   EXPECT_TRUE(st.ok()) << st.message();
-  // Every IterationMetrics field is a listed metric, the iteration, the status, or the report time
-  // (the service's own).
+  // Every IterationMetrics field is a listed metric, the iteration, the status, the motions, or the
+  // report time (the service's own).
   const google::protobuf::Descriptor* d = v1::IterationMetrics::descriptor();
-  std::set<std::string> listed = {"iteration", "solve_status", "report_time_s"};
+  std::set<std::string> listed = {"iteration", "solve_status", "report_time_s", "motions"};
 #define KGD_LIST_METRIC(type, name, what) listed.insert(#name);
   KGD_BESO_METRICS(KGD_LIST_METRIC)
 #undef KGD_LIST_METRIC
@@ -295,6 +295,20 @@ TEST(Records, IterationsRoundTripBitForBit) {
   settings.max_iterations = 2;
   Result<std::vector<BesoIteration>> run = RunBeso(*scene, settings);
   ASSERT_TRUE(run.ok());
+  // A second motion, allowed (its figures made up): every motion travels.
+  for (BesoIteration& it : *run) {
+    ASSERT_EQ(it.motions.size(), 1u);
+    MotionMetrics m = it.motions[0];
+    m.name = "reach";
+    m.role = MotionRole::kAllow;
+    m.weight = 0.5;
+    m.energy_J = 1.0 / 3.0;
+    m.reinforced_energy_J = 1e-17 + it.iteration;
+    m.density_ratio = 2.0 / 3.0;
+    m.simulation_s = 0.125;
+    m.solver_iterations = 9;
+    it.motions.push_back(m);
+  }
   const int faces = scene->garment.faces.rows(), vertices = scene->garment.vertices.rows();
   for (const BesoIteration& it : *run) {
     Result<BesoIteration> back = RecordFromProto(RecordToProto(it), faces, vertices);

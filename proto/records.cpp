@@ -68,6 +68,18 @@ v1::IterationMetrics MetricsToProto(const BesoIteration& it) {
 #define KGD_METRIC_TO_PROTO(type, name, what) SetField(r, &m, MetricField(#name), it.name);
   KGD_BESO_METRICS(KGD_METRIC_TO_PROTO)
 #undef KGD_METRIC_TO_PROTO
+  for (const MotionMetrics& mm : it.motions) {
+    v1::MotionMetrics* p = m.add_motions();
+    p->set_name(mm.name);
+    p->set_role(ToString(mm.role));
+    p->set_weight(mm.weight);
+    p->set_energy_j(mm.energy_J);
+    p->set_reinforced_energy_j(mm.reinforced_energy_J);
+    p->set_reinforced_density_j_per_m2(mm.reinforced_density_J_per_m2);
+    p->set_density_ratio(mm.density_ratio);
+    p->set_simulation_s(mm.simulation_s);
+    p->set_solver_iterations(mm.solver_iterations);
+  }
   return m;
 }
 
@@ -80,6 +92,19 @@ BesoIteration MetricsFromProto(const v1::IterationMetrics& m) {
 #define KGD_METRIC_FROM_PROTO(type, name, what) GetField(r, m, MetricField(#name), &it.name);
   KGD_BESO_METRICS(KGD_METRIC_FROM_PROTO)
 #undef KGD_METRIC_FROM_PROTO
+  for (const v1::MotionMetrics& p : m.motions()) {
+    MotionMetrics mm;
+    mm.name = p.name();
+    mm.role = p.role() == "allow" ? MotionRole::kAllow : MotionRole::kResist;
+    mm.weight = p.weight();
+    mm.energy_J = p.energy_j();
+    mm.reinforced_energy_J = p.reinforced_energy_j();
+    mm.reinforced_density_J_per_m2 = p.reinforced_density_j_per_m2();
+    mm.density_ratio = p.density_ratio();
+    mm.simulation_s = p.simulation_s();
+    mm.solver_iterations = p.solver_iterations();
+    it.motions.push_back(std::move(mm));
+  }
   return it;
 }
 

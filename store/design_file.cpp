@@ -125,6 +125,7 @@ struct DesignFileWriter::Impl {
   std::string path;
   Id file, iterations;
   int faces = 0, vertices = 0;
+  size_t motions = 0;  // K: /iterations/motion_metrics rows hold K motions (0: no such dataset)
 };
 
 DesignFileWriter::~DesignFileWriter() = default;
@@ -151,6 +152,46 @@ struct DesignFileReader {
 };
 
 namespace {
+
+// Per motion and iteration: energy_J, reinforced_energy_J, reinforced_density_J_per_m2, density_ratio,
+// simulation_s, solver_iterations.
+constexpr int kMotionFigures = 6;
+constexpr const char* kMotionMetrics = "motion_metrics";
+
+std::string MotionsToJson(const std::vector<MotionMetrics>& motions) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::array();
+  for (const MotionMetrics& m : motions) j.push_back({{"name", m.name}, {"role", ToString(m.role)}, {"weight", m.weight}});
+  return j.dump();
+}
+
+Result<std::vector<MotionMetrics>> MotionsFromJson(const std::string& text) {
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_array()) return Status::Error("/job motions: not a JSON array");
+  std::vector<MotionMetrics> out;
+  try {
+    for (const nlohmann::json& e : j) {
+      MotionMetrics m;
+      m.name = e.at("name").get<std::string>();
+      Result<MotionRole> role = MotionRoleFromName(e.at("role").get<std::string>(), "/job motions: motion '" + m.name + "'");
+      if (!role.ok()) return role.status();
+      m.role = *role;
+      m.weight = e.at("weight").get<double>();
+      out.push_back(std::move(m));
+    }
+  } catch (const nlohmann::json::exception& e) {
+    return Status::Error(std::string("/job motions: ") + e.what());
+  }
+  return out;
+}
+
+void SetMotionFigures(MotionMetrics* m, const double* v) {
+  m->energy_J = v[0];
+  m->reinforced_energy_J = v[1];
+  m->reinforced_density_J_per_m2 = v[2];
+  m->density_ratio = v[3];
+  m->simulation_s = v[4];
+  m->solver_iterations = static_cast<int>(v[5]);
+}
 
 // Opens `path` and reads its header. Strict (salvage false): every dataset must hold the marker's
 // rows. Salvage: a killed writer may leave datasets shorter than the marker; rows counts what all
@@ -197,6 +238,13 @@ Result<std::unique_ptr<DesignFileReader>> OpenDesignFileReader(const std::string
     Result<BesoSettings> s = BesoSettingsFromJson(settings);
     if (!s.ok()) return Fail(path, "/job settings: " + s.message());
     h.settings = *s;
+    std::string motions;
+    if (H5Aexists(job, "motions") > 0) {
+      if (!ReadStringAttribute(job, "motions", &motions)) return Fail(path, "/job motions cannot be read");
+      Result<std::vector<MotionMetrics>> m = MotionsFromJson(motions);
+      if (!m.ok()) return Fail(path, m.message());
+      h.motions = std::move(m).value();
+    }
   }
   {
     Id g(H5Gopen2(r.file, "garment", H5P_DEFAULT), H5Gclose);
@@ -269,6 +317,18 @@ Result<std::unique_ptr<DesignFileReader>> OpenDesignFileReader(const std::string
     if (s[0] < r.rows && !salvage) return Fail(path, "/iterations/" + name + " is shorter than /iterations/iteration" + kKilled);
     r.rows = std::min(r.rows, s[0]);
   }
+  if (!h.motions.empty()) {
+    const std::vector<hsize_t> s = Shape(r.its, kMotionMetrics);
+    const std::vector<hsize_t> row = {h.motions.size(), kMotionFigures};
+    if (s.empty() && salvage) {
+      r.rows = 0;
+    } else {
+      if (s.size() != 3 || std::vector<hsize_t>(s.begin() + 1, s.end()) != row)
+        return Fail(path, std::string("/iterations/") + kMotionMetrics + " is missing or does not match /job motions");
+      if (s[0] < r.rows && !salvage) return Fail(path, std::string("/iterations/") + kMotionMetrics + " is shorter than /iterations/iteration" + kKilled);
+      r.rows = std::min(r.rows, s[0]);
+    }
+  }
   const std::vector<std::vector<hsize_t>> array_shapes = {{nf}, {nv, 3}, {nf}, {nf}};
   for (int a = 0; a < 4; ++a) {
     std::vector<hsize_t> s = Shape(r.its, kArrayNames[a]);
@@ -310,6 +370,26 @@ Status ReadMetricRows(const DesignFileReader& r, hsize_t first, hsize_t rows, Be
     } else {
       ok = ok && ReadRows(its, s.name, H5T_NATIVE_DOUBLE, first, rows, real.data());
       for (hsize_t i = 0; ok && i < rows; ++i) it[i].*(s.real) = real[i];
+    }
+  }
+  // Per motion; a file from before motions: one, the scene's, with the figures above.
+  const std::vector<MotionMetrics>& motions = r.header.motions;
+  if (ok && !motions.empty()) {
+    const size_t k = motions.size();
+    real.resize(rows * k * kMotionFigures);
+    ok = ReadRows(its, kMotionMetrics, H5T_NATIVE_DOUBLE, first, rows, real.data());
+    for (hsize_t i = 0; ok && i < rows; ++i) {
+      it[i].motions = motions;
+      for (size_t m = 0; m < k; ++m) SetMotionFigures(&it[i].motions[m], &real[(i * k + m) * kMotionFigures]);
+    }
+  } else if (ok) {
+    for (hsize_t i = 0; i < rows; ++i) {
+      MotionMetrics m;
+      m.name = std::filesystem::path(r.header.scene).stem().string();
+      const double v[kMotionFigures] = {it[i].energy_J, it[i].reinforced_energy_J, it[i].reinforced_density_J_per_m2, it[i].density_ratio,
+                                        it[i].simulation_s, static_cast<double>(it[i].solver_iterations)};
+      SetMotionFigures(&m, v);
+      it[i].motions = {m};
     }
   }
   if (!ok)
@@ -361,7 +441,8 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
     Id job(H5Gcreate2(m.file, "job", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
     ok = ok && job.ok() && WriteStringAttribute(job, "scene", h.scene) && WriteStringAttribute(job, "body", h.body) &&
          WriteStringAttribute(job, "settings", BesoSettingsToJson(h.settings)) &&
-         WriteStringAttribute(job, "kgd_version", KGD_VERSION);
+         WriteStringAttribute(job, "kgd_version", KGD_VERSION) &&
+         (h.motions.empty() || WriteStringAttribute(job, "motions", MotionsToJson(h.motions)));
   }
   {
     Id g(H5Gcreate2(m.file, "garment", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
@@ -401,6 +482,8 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
        CreateGrowing(m.iterations, "positions", H5T_IEEE_F64LE, {nv, 3}, Storage::kRaw) &&
        CreateGrowing(m.iterations, "energy_density_Pa", H5T_IEEE_F64LE, {nf}, Storage::kRaw) &&
        CreateGrowing(m.iterations, "sensitivity", H5T_IEEE_F64LE, {nf}, Storage::kRaw);
+  if (!h.motions.empty()) ok = ok && CreateGrowing(m.iterations, kMotionMetrics, H5T_IEEE_F64LE, {h.motions.size(), kMotionFigures});
+  m.motions = h.motions.size();
   if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot write the design file (disk full?)");
   if (H5Fstart_swmr_write(m.file) < 0) return Fail(path, "cannot start single-writer/multiple-reader mode");
   return w;
@@ -459,6 +542,7 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
   m.path = path;
   m.faces = static_cast<int>(existing->header.garment.faces.rows());
   m.vertices = static_cast<int>(existing->header.garment.vertices.rows());
+  m.motions = existing->header.motions.size();
   m.file = Id(H5Fopen(path.c_str(), H5F_ACC_RDWR, WriterAccess()), H5Fclose);
   if (!m.file.ok()) return Fail(path, "cannot open the design file for writing");
   m.iterations = Id(H5Gopen2(m.file, "iterations", H5P_DEFAULT), H5Gclose);
@@ -475,6 +559,7 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
   }
   for (const std::string& name : DesignFileMetricNames()) ok = ok && Truncate(m.iterations, name.c_str(), keep);
   for (const char* name : kArrayNames) ok = ok && Truncate(m.iterations, name, keep);
+  if (m.motions > 0) ok = ok && Truncate(m.iterations, kMotionMetrics, keep);
   if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot truncate the design file");
   // Files of format_version 1 written before SWMR (superblock < 3) cannot enter SWMR mode; they are
   // appended to as before.
@@ -526,8 +611,18 @@ Status DesignFileWriter::Append(const BesoIteration& it) {
   if (static_cast<int>(it.design.size()) != m.faces || it.positions.rows() != m.vertices || it.energy_density_Pa.size() != m.faces ||
       (it.sensitivity.size() != 0 && it.sensitivity.size() != m.faces))
     return Fail(m.path, "iteration " + std::to_string(it.iteration) + ": arrays do not match the garment");
+  if (m.motions > 0 && it.motions.size() != m.motions)
+    return Fail(m.path, "iteration " + std::to_string(it.iteration) + ": " + std::to_string(it.motions.size()) + " motions, the file " +
+                            std::to_string(m.motions));
   const hsize_t row = count_;
   bool ok = true;
+  if (m.motions > 0) {
+    std::vector<double> v;
+    for (const MotionMetrics& mm : it.motions)
+      v.insert(v.end(), {mm.energy_J, mm.reinforced_energy_J, mm.reinforced_density_J_per_m2, mm.density_ratio, mm.simulation_s,
+                         static_cast<double>(mm.solver_iterations)});
+    ok = WriteRow(m.iterations, kMotionMetrics, H5T_NATIVE_DOUBLE, row, v.data());
+  }
   for (const MetricSpec& s : Metrics()) {
     if (s.integer) {
       const int v = it.*(s.whole);

@@ -5,7 +5,9 @@
 //
 //   /                            attrs format = "kgd design history", format_version = 1
 //   /job                         attrs scene (built-in name or scene-file path), body (measurement
-//                                overrides "name=value ..."), settings (BESO settings, JSON), kgd_version
+//                                overrides "name=value ..."), settings (BESO settings, JSON), kgd_version,
+//                                motions (JSON [{"name", "role", "weight"}, ...]: the scene's K motions;
+//                                files before it lack it and read as one motion, the scene's)
 //   /garment/rest_vertices       (V,3) float64, m
 //   /garment/faces               (F,3) int32, 0-based vertex indices
 //   /garment/rest_area           (F)   float64, m^2
@@ -22,6 +24,9 @@
 //   /iterations/positions        (N,V,3) float64, m
 //   /iterations/energy_density_Pa (N,F) float64, strain energy density W
 //   /iterations/sensitivity      (N,F)   float64, filtered averaged sensitivities (row 0: zeros)
+//   /iterations/motion_metrics   (N,K,6) float64 per motion: energy_J, reinforced_energy_J,
+//                                reinforced_density_J_per_m2, density_ratio, simulation_s,
+//                                solver_iterations (with /job motions)
 //
 // Per-iteration arrays are chunked one iteration per chunk, metrics 64 iterations per chunk, /garment
 // datasets in one chunk each; every chunk carries a Fletcher-32 checksum (files written before it
@@ -61,6 +66,8 @@ struct DesignFileHeader {
   // Material thicknesses (m), to turn energy densities (J/m^3) into energy per area (J/m^2); 0: unknown.
   double cloth_thickness_m = 0, reinforced_thickness_m = 0;
   TriMesh body_mesh;          // the body in the simulated pose; empty when the scene has none
+  // The scene's motions: name, role, weight (the figures unused). Empty: one motion, the scene's.
+  std::vector<MotionMetrics> motions;
 };
 
 struct DesignFile {

@@ -113,6 +113,81 @@ TEST(DesignFile, RoundTripsAHistoryBitForBit) {
   std::filesystem::remove(path);
 }
 
+// Per-motion records (docs/MODEL.md, "Motions with roles") round-trip with the header's motions, and
+// survive a reopen; a file without them (from before motions) reads as one motion, the scene's, with
+// the iteration's figures.
+TEST(DesignFile, PerMotionRecordsRoundTripAndOldFilesReadAsOneMotion) {
+  Fixture f = MakeRun(3);
+  DesignFileHeader header = f.header;
+  header.motions.resize(2);
+  header.motions[0].name = "straighten";
+  header.motions[1].name = "bend";
+  header.motions[1].role = MotionRole::kAllow;
+  header.motions[1].weight = 0.25;
+  for (BesoIteration& it : f.run) {
+    it.motions = header.motions;
+    for (int m = 0; m < 2; ++m) {
+      MotionMetrics& mm = it.motions[m];
+      mm.energy_J = it.energy_J + m;
+      mm.reinforced_energy_J = 0.1 * it.iteration + m + 1e-17;
+      mm.reinforced_density_J_per_m2 = 3.0 / (it.iteration + 7) + m;
+      mm.density_ratio = 1.0 / 3.0 + it.iteration + m;
+      mm.simulation_s = 0.001 * (it.iteration + 1) * (m + 1);
+      mm.solver_iterations = it.iteration + 10 * m;
+    }
+  }
+  const std::string path = TempPath("motions.h5");
+  {
+    auto w = DesignFileWriter::Create(path, header);
+    ASSERT_TRUE(w.ok()) << w.message();
+    for (const BesoIteration& it : f.run) ASSERT_TRUE((*w)->Append(it).ok());
+    BesoIteration one_motion = f.run[0];
+    one_motion.iteration = static_cast<int>(f.run.size());
+    one_motion.motions.resize(1);
+    const Status refused = (*w)->Append(one_motion);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_NE(refused.message().find("1 motions, the file 2"), std::string::npos) << refused.message();
+  }
+  auto check = [&](const DesignFile& d, size_t n) {
+    ASSERT_EQ(d.header.motions.size(), 2u);
+    EXPECT_EQ(d.header.motions[1].name, "bend");
+    EXPECT_EQ(d.header.motions[1].role, MotionRole::kAllow);
+    EXPECT_EQ(d.header.motions[1].weight, 0.25);
+    ASSERT_EQ(d.iterations.size(), n);
+    for (size_t k = 0; k < n; ++k) EXPECT_EQ(d.iterations[k].motions, f.run[k].motions) << "iteration " << k;
+  };
+  Result<DesignFile> d = ReadDesignFile(path, {.arrays = false});
+  ASSERT_TRUE(d.ok()) << d.message();
+  check(*d, f.run.size());
+  {
+    auto w = DesignFileWriter::Reopen(path, 2);
+    ASSERT_TRUE(w.ok()) << w.message();
+    ASSERT_TRUE((*w)->Append(f.run[2]).ok());
+  }
+  d = ReadDesignFile(path);
+  ASSERT_TRUE(d.ok()) << d.message();
+  check(*d, 3);
+
+  // The same history in a file without motions.
+  {
+    auto w = DesignFileWriter::Create(path, f.header);
+    ASSERT_TRUE(w.ok()) << w.message();
+    for (const BesoIteration& it : f.run) ASSERT_TRUE((*w)->Append(it).ok());
+  }
+  d = ReadDesignFile(path, {.arrays = false});
+  ASSERT_TRUE(d.ok()) << d.message();
+  EXPECT_TRUE(d->header.motions.empty());
+  for (const BesoIteration& it : d->iterations) {
+    ASSERT_EQ(it.motions.size(), 1u);
+    EXPECT_EQ(it.motions[0].name, "pull_test");
+    EXPECT_EQ(it.motions[0].role, MotionRole::kResist);
+    EXPECT_EQ(it.motions[0].weight, 1.0);
+    EXPECT_EQ(it.motions[0].reinforced_energy_J, it.reinforced_energy_J);
+    EXPECT_EQ(it.motions[0].density_ratio, it.density_ratio);
+  }
+  std::filesystem::remove(path);
+}
+
 TEST(DesignFile, ReopenKeepsThePrefixAndResumedRunsMatchUninterruptedOnes) {
   const Fixture f = MakeRun(6);
   const std::string path = TempPath("resume.h5");

@@ -39,7 +39,9 @@ namespace kgd {
     "Average with the previous iteration's filtered, not averaged, sensitivities (the authors' code)")                 \
   X(keep_attachments, false, "--keep-attachments", keep_attachments, "Attachment triangles stay reinforced")          \
   X(symmetric, false, "--symmetric", symmetric,                                                                          \
-    "Mirror-symmetric designs about the scene's symmetry plane (default: the parametric body's sagittal plane, x = 0)")
+    "Mirror-symmetric designs about the scene's symmetry plane (default: the parametric body's sagittal plane, x = 0)") \
+  X(resist_only, false, "--resist-only", resist_only,                                                                    \
+    "The scene's allowed motions weigh 0: simulated and reported, no part of the objective (to compare with the design that allows them)")
 
 // budget: target reinforced area A* as a fraction of the garment area. evolutionary_ratio (ER): the
 // target area shrinks by this fraction per iteration. admission_ratio (AR_max): at most this fraction
@@ -50,6 +52,7 @@ namespace kgd {
 // & Xie, the paper) or, with average_with_raw, its filtered-only ones (the authors' code).
 // keep_attachments: attachment triangles stay reinforced. symmetric: every design is mirror symmetric
 // (core/beso/design_constraints.h; a scene with garment.symmetry is symmetric without it).
+// resist_only: the scene's allowed motions get weight 0 (docs/MODEL.md, "Motions with roles").
 struct BesoSettings {
 #define KGD_DECLARE_BESO_VALUE(type, name, default_value, flag, help) type name = default_value;
   KGD_BESO_VALUES(KGD_DECLARE_BESO_VALUE)

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdio>
 #include <optional>
+#include <memory>
 
 #include "core/beso/design_constraints.h"
 #include "core/scene/simulate.h"
@@ -20,6 +21,70 @@ std::vector<double> Objective(const std::vector<BesoIteration>& history) {
   e.reserve(history.size());
   for (const BesoIteration& it : history) e.push_back(it.energy_J);
   return e;
+}
+
+// The paper's stop rule on the energy of every motion in the objective (weight > 0): each flat over the
+// window. One such motion (the scene's own): its energy_J, as with one motion.
+bool ObjectiveFlat(const std::vector<BesoIteration>& history, bool target_reached, double tau, int window) {
+  const std::vector<MotionMetrics>& motions = history.back().motions;
+  int active = 0;
+  for (const MotionMetrics& m : motions) active += m.weight > 0;
+  if (active <= 1) return BesoConverged(Objective(history), target_reached, tau, window);
+  for (size_t k = 0; k < motions.size(); ++k) {
+    if (!(motions[k].weight > 0)) continue;
+    std::vector<double> e;
+    for (const BesoIteration& it : history)
+      if (it.motions.size() == motions.size()) e.push_back(it.motions[k].energy_J);
+    if (!BesoConverged(e, target_reached, tau, window)) return false;
+  }
+  return true;
+}
+
+// A motion beyond the scene's own, simulated beside it every iteration on a system of its own (built
+// once), warm-started from its own last equilibrium.
+struct MotionState {
+  SceneMotion motion;
+  SceneSpec scene;
+  std::unique_ptr<GarmentSystem> sys;
+  std::unique_ptr<Simulator> sim;
+  Positions x;
+  Eigen::VectorXd density;   // W at x
+  double full_density = 0;   // reinforced density of iteration 0 (J/m^2)
+  double simulation_s = 0;   // the last solve (wall s)
+};
+
+// Solves `m` at its current design from its last equilibrium (from the body when that fails, or when
+// `cold`); errors name the motion.
+Result<SimulationResult> SolveMotion(MotionState* m, int iteration, bool cold) {
+  const auto t0 = Clock::now();
+  if (cold) m->x = m->scene.initial;
+  m->sim->ResetFactorization();
+  SolveReport report = SolveLagged(*m->sim, *m->sys, &m->x, m->scene.solver);
+  if (!report.at_equilibrium() && !cold) {
+    m->x = m->scene.initial;
+    m->sim->ResetFactorization();
+    AccumulateSolve(&report, SolveLagged(*m->sim, *m->sys, &m->x, m->scene.solver));
+  }
+  if (!report.at_equilibrium())
+    return Status::Error("BESO iteration " + std::to_string(iteration) + ", motion '" + m->motion.name + "': the simulation did not converge (" +
+                         ToString(report.status) + (report.message.empty() ? "" : ": " + report.message) + ")");
+  SimulationResult r = Summarize(*m->sys, m->x, m->scene.on_body, report);
+  m->density = r.face_density_Pa;
+  m->simulation_s = Since(t0);
+  return r;
+}
+
+MotionMetrics MetricsOfMotion(const SceneMotion& motion, const SimulationResult& r, double full_density) {
+  MotionMetrics out;
+  out.name = motion.name;
+  out.role = motion.role;
+  out.weight = motion.weight;
+  out.energy_J = r.solve.energy_J;
+  out.reinforced_energy_J = r.reinforced_energy_J;
+  out.reinforced_density_J_per_m2 = r.reinforced_density_J_per_m2;
+  out.density_ratio = full_density > 0 ? r.reinforced_density_J_per_m2 / full_density : 0.0;
+  out.solver_iterations = r.solve.iterations;
+  return out;
 }
 
 }  // namespace
@@ -59,7 +124,7 @@ BesoEnd BesoEndOf(const std::vector<BesoIteration>& history, const BesoSettings&
   if (history.empty()) return BesoEnd::kRunning;
   if (NothingToResist(history.front())) return BesoEnd::kNothingToResist;
   if (history.back().iteration >= settings.max_iterations) return BesoEnd::kIterationLimit;
-  if (BesoConverged(Objective(history), TargetReached(history.back().target_area_m2, settings.budget * garment_area_m2), settings.tau,
+  if (ObjectiveFlat(history, TargetReached(history.back().target_area_m2, settings.budget * garment_area_m2), settings.tau,
                     settings.converge_window))
     return BesoEnd::kConverged;
   return BesoEnd::kRunning;
@@ -84,11 +149,27 @@ std::string DescribeBesoEnd(BesoEnd end, const std::vector<BesoIteration>& histo
     }
   }
   return "";
+std::vector<MotionMetrics> MotionsOfJob(const SceneSpec& scene, const BesoSettings& settings) {
+  std::vector<MotionMetrics> out;
+  for (const SceneMotion& m : MotionsOf(scene)) {
+    MotionMetrics mm;
+    mm.name = m.name;
+    mm.role = m.role;
+    mm.weight = settings.resist_only && m.role == MotionRole::kAllow ? 0.0 : m.weight;
+    out.push_back(std::move(mm));
+  }
+  return out;
+}
+
 }
 
 Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const BesoSettings& settings,
                                            const std::function<bool(const BesoIteration&)>& on_iteration,
+  KGD_RETURN_IF_ERROR(ValidateSceneMotions(scene_in));
                                            const std::vector<BesoIteration>* resume) {
+  if (settings.resist_only)
+    for (SceneMotion& m : scene.motions)
+      if (m.role == MotionRole::kAllow) m.weight = 0;
   if (Status st = ValidateBesoSettings(settings); !st.ok()) return st;
   SceneSpec scene = scene_in;
   const int nf = static_cast<int>(scene.garment.faces.rows());
@@ -113,7 +194,6 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
   GarmentSystem sys(std::move(model).value(), scene.initial);
   Simulator sim(&sys);
   const Positions& reference = scene.on_body.rows() ? scene.on_body : scene.initial;
-
   Eigen::VectorXd area(nf);
   for (int f = 0; f < nf; ++f) area[f] = sys.elements()[f].rest_area_m2;
   const double total_area = area.sum(), final_area = settings.budget * total_area;
@@ -164,6 +244,29 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
   Eigen::VectorXd density = last ? last->energy_density_Pa : Eigen::VectorXd();  // W at x
   double target = last ? last->target_area_m2 : units ? total_area - KeptOutArea(*units, area) : total_area;
   if (units && !last) sys.SetDesign(design);
+  // The scene's own motion is motions[0] (simulated by `sys`); the others get systems of their own.
+  const std::vector<SceneMotion> motions = MotionsOf(scene);
+  std::vector<MotionState> others;
+  int active = 0;  // motions in the objective
+  for (const SceneMotion& m : motions) active += m.weight > 0;
+  for (size_t k = 1; k < motions.size(); ++k) {
+    MotionState& st = others.emplace_back();
+    st.motion = motions[k];
+    Result<SceneSpec> posed = SceneInMotion(scene, static_cast<int>(k));
+    if (!posed.ok()) return posed.status();
+    st.scene = std::move(posed).value();
+    Result<GarmentModel> mk = BuildGarmentModel(st.scene);
+    if (!mk.ok()) return mk.status().WithContext("motion '" + st.motion.name + "': ");
+    st.sys = std::make_unique<GarmentSystem>(std::move(mk).value(), st.scene.initial);
+    st.sim = std::make_unique<Simulator>(st.sys.get());
+    st.x = st.scene.initial;
+    if (!past.empty() && past.front().motions.size() == motions.size()) st.full_density = past.front().motions[k].reinforced_density_J_per_m2;
+  }
+  // Resumed: the other motions' equilibria are not stored; they are solved again at the stored design,
+  // from the body.
+  if (last)
+    for (MotionState& st : others)
+      if (Result<SimulationResult> r = SolveMotion(&st, last->iteration, true); !r.ok()) return r.status();
   double full_density = past.empty() ? 0.0 : past.front().reinforced_density_J_per_m2;
   if (last && BesoFinished(past, settings, total_area)) return out;
   for (int it = last ? last->iteration + 1 : 0; it <= settings.max_iterations; ++it) {
@@ -173,8 +276,21 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
       // Rank on the last equilibrium and move the design towards the next target area.
       auto t0 = Clock::now();
       if (density.size() != nf) sys.FaceDensities(x, &density, nullptr);
-      const Eigen::VectorXd s = Sensitivities(density, design, scene.reinforced.youngs_modulus_Pa, scene.cloth.youngs_modulus_Pa,
-                                              settings.d_min, settings.penalty);
+      Eigen::VectorXd s = Sensitivities(density, design, scene.reinforced.youngs_modulus_Pa, scene.cloth.youngs_modulus_Pa,
+                                        settings.d_min, settings.penalty);
+      if (active > 1) {
+        // docs/MODEL.md, "Motions with roles": each motion's sensitivities over its fully reinforced
+        // density, weighted, added for resisted motions and subtracted for allowed ones. With one motion
+        // in the objective its sensitivities rank as they are (a scale does not change the ranking).
+        if (full_density > 0) s *= motions[0].weight / full_density;
+        for (MotionState& st : others) {
+          if (!(st.motion.weight > 0) || !(st.full_density > 0)) continue;
+          if (st.density.size() != nf) st.sys->FaceDensities(st.x, &st.density, nullptr);
+          const double c = (st.motion.role == MotionRole::kAllow ? -1.0 : 1.0) * st.motion.weight / st.full_density;
+          s += c * Sensitivities(st.density, design, scene.reinforced.youngs_modulus_Pa, scene.cloth.youngs_modulus_Pa, settings.d_min,
+                                 settings.penalty);
+        }
+      }
       b.sensitivity_s = Since(t0);
       t0 = Clock::now();
       Eigen::VectorXd filtered = FilterSensitivities(s, scene.garment.faces, nv, area);
@@ -187,6 +303,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
       target = NextTargetArea(target, final_area, settings.evolutionary_ratio);
       design = units ? UpdateDesignOnUnits(*units, filtered, area, design, target, settings.admission_ratio * total_area)
                      : UpdateDesign(filtered, area, design, target, settings.admission_ratio * total_area,
+      for (MotionState& st : others) st.sys->SetDesign(design);
                                     settings.keep_attachments ? &locked : nullptr);
       sys.SetDesign(design);
       b.update_s = Since(t0);
@@ -203,22 +320,36 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
       x = scene.initial;
       sim.ResetFactorization();
       AccumulateSolve(&report, SolveLagged(sim, sys, &x, scene.solver));
+    const SimulationResult r = Summarize(sys, x, reference, report);
+    // Every other motion at the same design, each from its own last equilibrium.
+    std::vector<MotionMetrics> motion_metrics;
+    motion_metrics.reserve(motions.size());
+    if (it == 0) full_density = r.reinforced_density_J_per_m2;
+    motion_metrics.push_back(MetricsOfMotion(motions[0], r, full_density));
+    motion_metrics.back().simulation_s = Since(t0);
+    if (report.at_equilibrium())
+      for (MotionState& st : others) {
+        Result<SimulationResult> rk = SolveMotion(&st, it, false);
+        if (!rk.ok()) return rk.status();
+        if (it == 0) st.full_density = rk->reinforced_density_J_per_m2;
+        motion_metrics.push_back(MetricsOfMotion(st.motion, *rk, st.full_density));
+        motion_metrics.back().simulation_s = st.simulation_s;
+      }
       b.cold_restart = 1;
     }
     b.simulation_s = Since(t0);
     RecordSolveProfile(report, &b);
-    const SimulationResult r = Summarize(sys, x, reference, report);
     b.iteration = it;
     b.target_area_m2 = target;
     b.area_fraction = r.reinforced_area_m2 / total_area;
     b.energy_J = report.energy_J;
     b.reinforced_energy_J = r.reinforced_energy_J;
     b.reinforced_density_J_per_m2 = r.reinforced_density_J_per_m2;
-    if (it == 0) full_density = r.reinforced_density_J_per_m2;
     b.density_ratio = full_density > 0 ? r.reinforced_density_J_per_m2 / full_density : 0.0;
     b.status = report.status;
     b.solver_iterations = report.iterations;
     b.design = design;
+    b.motions = std::move(motion_metrics);
     b.positions = x;
     b.energy_density_Pa = r.face_density_Pa;
     density = r.face_density_Pa;

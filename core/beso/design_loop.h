@@ -55,6 +55,21 @@ namespace kgd {
   X(double, friction_s, "friction term evaluations (0: not built)")                                         \
   X(double, bending_s, "bending term evaluations (0: not built)")
 
+// One motion's figures in an iteration (docs/MODEL.md, "Motions with roles"): the design simulated in
+// that motion. density_ratio: against the motion's own fully reinforced design (iteration 0).
+struct MotionMetrics {
+  std::string name;
+  MotionRole role = MotionRole::kResist;
+  double weight = 1.0;
+  double energy_J = 0;                     // total potential energy at equilibrium
+  double reinforced_energy_J = 0;
+  double reinforced_density_J_per_m2 = 0;
+  double density_ratio = 0;
+  double simulation_s = 0;                 // its equilibrium solve (wall s)
+  int solver_iterations = 0;
+  bool operator==(const MotionMetrics&) const = default;
+};
+
 struct BesoIteration {
   int iteration = 0;  // 0: the fully reinforced design
   SolveStatus status = SolveStatus::kConverged;
@@ -79,6 +94,9 @@ void RecordSolveProfile(const SolveReport& report, BesoIteration* it);
 // are all the stop rule and summaries read.
 BesoIteration MetricsOnly(BesoIteration it);
 
+  // Every motion of the scene (MotionsOf), in its order; motions[0] gives the metrics above. Empty only
+  // in records from before motions were stored.
+  std::vector<MotionMetrics> motions;
 // Runs BESO on `scene` (its design is ignored: the loop starts fully reinforced). `on_iteration`
 // (optional) sees every iteration as it lands; returning false stops the run. `resume` (optional):
 // records of an earlier run of the same scene and settings (iterations 0..k, complete for the last);
@@ -91,6 +109,10 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene, const BesoSet
 
 // How a run stands after `history` (iterations 0..k): still running, or why it ended.
 enum class BesoEnd {
+// The motions a job on `scene` weighs: name, role and weight of each of MotionsOf(scene), the allowed
+// ones at weight 0 with settings.resist_only (the figures 0).
+std::vector<MotionMetrics> MotionsOfJob(const SceneSpec& scene, const BesoSettings& settings);
+
   kRunning,
   kConverged,        // target area reached and the objective flat over the window
   kIterationLimit,   // settings.max_iterations reached

@@ -2,9 +2,11 @@
 // the reinforced energy density rises as material goes, and the run is deterministic.
 #include "core/beso/design_loop.h"
 #include "core/scene/builtin_scenes.h"
+#include "core/scene/shapes.h"
 
 #include <cmath>
 #include <limits>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
@@ -225,6 +227,154 @@ TEST(DesignLoop, BadSettingsAreRefused) {
   const Result<std::vector<BesoIteration>> run = RunBeso(*scene, s);
   ASSERT_FALSE(run.ok());
   EXPECT_NE(run.message().find("budget"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace kgd
+
+// Motions with roles (docs/MODEL.md): a small sleeve cut from a limb that flexes its joint, the paper's
+// way (rest straight; each motion flexes it by its own angle, + towards +z, - towards -z).
+namespace kgd {
+namespace {
+
+SceneSpec FlexingSleeve(const std::vector<std::tuple<std::string, MotionRole, double, double>>& list) {
+  LimbShape shape;
+  shape.around = 16;
+  std::vector<double> axial;
+  const TriMesh rest = LimbRest(shape, &axial);
+  SceneSpec s;
+  s.name = "flexing_sleeve";
+  for (const auto& [name, role, weight, angle] : list) {
+    SceneMotion m;
+    m.name = name;
+    m.role = role;
+    m.weight = weight;
+    // |angle| > 1.5: flexed by angle - 2 (sign kept) towards +x instead (the limb turned about its axis).
+    Positions deformed;
+    if (std::abs(angle) > 1.5) {
+      Positions turned = rest.vertices;
+      turned.col(0) = rest.vertices.col(2);
+      turned.col(2) = -rest.vertices.col(0);
+      const Positions bent = LimbPosed(shape, turned, angle - std::copysign(2.0, angle));
+      deformed = bent;
+      deformed.col(0) = -bent.col(2);
+      deformed.col(2) = bent.col(0);
+    } else {
+      deformed = LimbPosed(shape, rest.vertices, angle);
+    }
+    m.pose = BodyMotion{rest.faces, rest.vertices, deformed, {}};
+    s.motions.push_back(std::move(m));
+  }
+  s.motion = s.motions.front().pose;
+  for (Eigen::Index f = 0; f < rest.faces.rows(); ++f) {
+    double lo = 1e300, hi = -1e300;
+    for (int k = 0; k < 3; ++k) lo = std::min(lo, axial[rest.faces(f, k)]), hi = std::max(hi, axial[rest.faces(f, k)]);
+    if (lo < -0.09 || hi > 0.09) continue;
+    s.garment_region.push_back(static_cast<int>(f));
+    if (lo < -0.07 || hi > 0.07) s.attachment_body_faces.push_back(static_cast<int>(f));
+  }
+  s.effects.contact = ContactModel::kUnilateral;
+  s.effects.attachments = true;
+  const Status st = CutGarmentFromMotion(&s);
+  EXPECT_TRUE(st.ok()) << st.message();
+  return s;
+}
+
+BesoSettings Quick(int iterations) {
+  BesoSettings s;
+  s.budget = 0.5;
+  s.evolutionary_ratio = 0.06;
+  s.admission_ratio = 0.06;
+  s.max_iterations = iterations;
+  return s;
+}
+
+void ExpectSameRun(const std::vector<BesoIteration>& a, const std::vector<BesoIteration>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t k = 0; k < a.size(); ++k) {
+    SCOPED_TRACE("iteration " + std::to_string(k));
+    EXPECT_EQ(a[k].design, b[k].design);
+    EXPECT_EQ(a[k].energy_J, b[k].energy_J);
+    EXPECT_EQ(a[k].density_ratio, b[k].density_ratio);
+    EXPECT_TRUE(a[k].positions == b[k].positions);
+    EXPECT_EQ(a[k].sensitivity.size(), b[k].sensitivity.size());
+    if (a[k].sensitivity.size() == b[k].sensitivity.size()) EXPECT_TRUE(a[k].sensitivity == b[k].sensitivity);
+  }
+}
+
+// An allowed motion of weight 0, or any allowed motion with resist_only, is simulated and reported but
+// changes no design: the run is the single-motion scene's, bit for bit.
+TEST(DesignLoopMotions, AnAllowedMotionOfWeightZeroChangesNothingButIsReported) {
+  const SceneSpec one = FlexingSleeve({{"flex", MotionRole::kResist, 1.0, 0.8}});
+  SceneSpec single = one;
+  single.motions.clear();
+  const SceneSpec zero = FlexingSleeve({{"flex", MotionRole::kResist, 1.0, 0.8}, {"back", MotionRole::kAllow, 0.0, -0.8}});
+  const SceneSpec allowed = FlexingSleeve({{"flex", MotionRole::kResist, 1.0, 0.8}, {"back", MotionRole::kAllow, 1.0, -0.8}});
+  BesoSettings s = Quick(8), resist_only = Quick(8);
+  resist_only.resist_only = true;
+  const Result<std::vector<BesoIteration>> a = RunBeso(single, s), b = RunBeso(zero, s), c = RunBeso(allowed, resist_only);
+  ASSERT_TRUE(a.ok()) << a.message();
+  ASSERT_TRUE(b.ok()) << b.message();
+  ASSERT_TRUE(c.ok()) << c.message();
+  ExpectSameRun(*a, *b);
+  ExpectSameRun(*a, *c);
+  ASSERT_EQ(a->back().motions.size(), 1u);
+  EXPECT_EQ(a->back().motions[0].name, "flexing_sleeve");
+  EXPECT_EQ(a->back().motions[0].energy_J, a->back().energy_J);
+  for (const BesoIteration& it : *c) {
+    ASSERT_EQ(it.motions.size(), 2u);
+    EXPECT_EQ(it.motions[0].reinforced_energy_J, it.reinforced_energy_J);
+    EXPECT_EQ(it.motions[1].name, "back");
+    EXPECT_EQ(it.motions[1].role, MotionRole::kAllow);
+    EXPECT_EQ(it.motions[1].weight, 0.0);
+    EXPECT_GT(it.motions[1].reinforced_energy_J, 0.0) << "the allowed motion is simulated";
+  }
+  EXPECT_EQ(c->front().motions[1].density_ratio, 1.0);
+}
+
+// Allowing a sideways flexion moves the reinforcement out of the strain it puts into the garment:
+// at the same budget the allowed motion's reinforced energy falls well below the resist-only design's,
+// while the resisted motion keeps most of its density ratio.
+TEST(DesignLoopMotions, AllowingAMotionMovesTheReinforcementOutOfItsStrain) {
+  const SceneSpec scene = FlexingSleeve({{"flex", MotionRole::kResist, 1.0, 0.8}, {"side", MotionRole::kAllow, 1.0, 2.8}});
+  BesoSettings both = Quick(14), resist_only = Quick(14);
+  resist_only.resist_only = true;
+  const Result<std::vector<BesoIteration>> a = RunBeso(scene, both), r = RunBeso(scene, resist_only);
+  ASSERT_TRUE(a.ok()) << a.message();
+  ASSERT_TRUE(r.ok()) << r.message();
+  EXPECT_NEAR(a->back().area_fraction, r->back().area_fraction, 0.02);
+  const MotionMetrics& allowed = a->back().motions[1];
+  const MotionMetrics& allowed_ro = r->back().motions[1];
+  EXPECT_LT(allowed.reinforced_energy_J, 0.5 * allowed_ro.reinforced_energy_J);
+  EXPECT_GT(a->back().motions[0].density_ratio, 0.85 * r->back().motions[0].density_ratio);
+}
+
+// Bad motions are refused before any simulation, the message naming the motion.
+TEST(DesignLoopMotions, BadMotionsAreRefusedByName) {
+  const SceneSpec good = FlexingSleeve({{"flex", MotionRole::kResist, 1.0, 0.8}, {"back", MotionRole::kAllow, 1.0, -0.8}});
+  auto refused = [&](SceneSpec scene, const std::string& words) {
+    const Result<std::vector<BesoIteration>> run = RunBeso(scene, Quick(2));
+    ASSERT_FALSE(run.ok());
+    EXPECT_NE(run.message().find(words), std::string::npos) << run.message();
+  };
+  SceneSpec negative = good;
+  negative.motions[1].weight = -1;
+  refused(negative, "motion 'back': weight -1");
+  SceneSpec topology = good;
+  topology.motions[1].pose.rest.conservativeResize(topology.motions[1].pose.rest.rows() - 1, 3);
+  refused(topology, "motion 'back': its rest pose has another topology");
+  SceneSpec moved = good;
+  moved.motions[1].pose.rest(0, 0) += 0.01;
+  refused(moved, "motion 'back': its rest pose differs");
+  SceneSpec none = good;
+  none.motions[0].role = MotionRole::kAllow;
+  refused(none, "motion 'flex': the first motion is the scene's own and must be resisted");
+  SceneSpec twice = good;
+  twice.motions[1].name = "flex";
+  refused(twice, "motion 'flex': two motions have this name");
+  SceneSpec own_mesh = *PullTestScene("all_cloth");
+  own_mesh.motions = good.motions;
+  refused(own_mesh, "not cut from a body");
 }
 
 }  // namespace

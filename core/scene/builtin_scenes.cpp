@@ -125,6 +125,7 @@ SceneSpec SleeveOnLimbScene(const SleeveOptions& o) {
 std::vector<std::string> BuiltinSceneNames() {
   std::vector<std::string> names;
   for (const PaperMotion& m : PaperMotions()) names.push_back(m.name);
+  for (const BraceScene& b : BraceScenes()) names.push_back(b.name);
   for (const char* n : {"sleeve_on_limb", "pull_test_all_cloth", "pull_test_all_reinforced", "pull_test_line", "pull_test_x"})
     names.push_back(n);
   return names;
@@ -142,9 +143,17 @@ std::vector<BuiltinSceneInfo> BuiltinSceneInfos() {
     out.push_back({m.name, m.garment, m.description, m.budget, m.frames, m.subdivisions, true, it == size.end() ? 0 : it->second.first,
                    it == size.end() ? 0 : it->second.second});
   }
+  for (const BraceScene& b : BraceScenes()) {
+    const auto it = size.find(b.name);
+    int frames = 0;
+    for (const BraceMotion& m : b.motions) frames += m.frames;
+    out.push_back({b.name, b.garment, b.description, b.budget, frames, b.subdivisions, true, it == size.end() ? 0 : it->second.first,
+                   it == size.end() ? 0 : it->second.second});
+  }
   for (const std::string& n : BuiltinSceneNames()) {
     bool paper = false;
     for (const PaperMotion& m : PaperMotions()) paper |= m.name == n;
+    for (const BraceScene& b : BraceScenes()) paper |= b.name == n;
     if (paper) continue;
     BuiltinSceneInfo info{n, "", "", 1.0, 0, 0, false};
     info.description = n.rfind("pull_test", 0) == 0 ? "pull test of the paper's 2D validation" : "sleeve on a capsule limb (simulator checks)";
@@ -166,6 +175,12 @@ Result<SceneSpec> BuiltinScene(const std::string& name, const BodyMeasurements& 
       if (!body.ok()) return body.status();
       return PaperScene(*body, m);
     }
+  for (const BraceScene& b : BraceScenes())
+    if (b.name == name) {
+      Result<ParametricBody> body = BuildParametricBody(measurements);
+      if (!body.ok()) return body.status();
+      return BraceSceneOn(*body, b);
+    }
   return Status::Error("body measurements apply only to the paper's scenes on the parametric body, not to '" + name + "'");
 }
 
@@ -175,6 +190,12 @@ Result<SceneSpec> BuiltinScene(const std::string& name) {
       Result<const ParametricBody*> body = DefaultParametricBody();
       if (!body.ok()) return body.status();
       return PaperScene(**body, m);
+    }
+  for (const BraceScene& b : BraceScenes())
+    if (b.name == name) {
+      Result<const ParametricBody*> body = DefaultParametricBody();
+      if (!body.ok()) return body.status();
+      return BraceSceneOn(**body, b);
     }
   if (name == "sleeve_on_limb") return SleeveOnLimbScene({});
   const std::string prefix = "pull_test_";

@@ -110,6 +110,64 @@ std::vector<PaperMotion> PaperMotions() {
   return m;
 }
 
+std::vector<BraceScene> BraceScenes() {
+  using R = MotionRole;
+  std::vector<BraceScene> b;
+  b.push_back({"arm_brace", "sleeve_arm",
+               "Arm sleeve at a 60 degree elbow that resists the elbow straightening (to 0) and allows it to bend (to 120).",
+               Degrees({{"r_elbow_flex", 60}}),
+               {{"straighten", R::kResist, 1.0, Degrees({{"r_elbow_flex", 0}}), 4}, {"bend", R::kAllow, 1.0, Degrees({{"r_elbow_flex", 120}}), 4}},
+               0.15, 2});
+  b.push_back({"knee_brace", "sleeve_knee",
+               "Knee sleeve at a 20 degree knee (hip 25) that resists extension past straight (to -5) and allows flexion (to 90).",
+               Degrees({{"r_hip_flex", 25}, {"r_knee_flex", 20}}),
+               {{"hyperextend", R::kResist, 1.0, Degrees({{"r_knee_flex", -5}}), 4}, {"flex", R::kAllow, 1.0, Degrees({{"r_knee_flex", 90}}), 4}},
+               0.15, 1});
+  // The slouch is the paper motion's; the reach lifts both arms forward to 90 degrees.
+  b.push_back({"posture_shirt", "shirt", "Shirt that resists the slouch and allows both arms to reach forward to 90 degrees.", {},
+               {{"slouch", R::kResist, 1.0,
+                 Degrees({{"spine01_flex", 10}, {"spine02_flex", 10}, {"spine03_flex", 5}, {"spine04_flex", 3}, {"neck01_flex", 10},
+                          {"neck02_flex", 5}, {"head_flex", -12}, {"l_clav_protr", 15}, {"r_clav_protr", 15}, {"l_clav_elev", -4},
+                          {"r_clav_elev", -4}, {"l_shoulder_flex", -20}, {"r_shoulder_flex", -20}}),
+                 8},
+                {"reach_forward", R::kAllow, 1.0, Degrees({{"l_shoulder_flex", 90}, {"r_shoulder_flex", 90}}), 8}},
+               0.10, 1});
+  return b;
+}
+
+Result<SceneSpec> BraceSceneOn(const ParametricBody& body, const BraceScene& brace) {
+  Result<BodyRegion> region = ParametricGarmentRegion(body, brace.garment);
+  if (!region.ok()) return region.status();
+  SceneSpec s;
+  s.name = brace.name;
+  s.description = brace.description;
+  s.budget = brace.budget;
+  for (const BraceMotion& bm : brace.motions) {
+    Result<std::vector<Positions>> poses = PoseSequence(body, MotionKeyframes(brace.rest, bm.pose, bm.frames));
+    if (!poses.ok()) return poses.status().WithContext(brace.name + ", motion '" + bm.name + "': ");
+    SceneMotion m;
+    m.name = bm.name;
+    m.role = bm.role;
+    m.weight = bm.weight;
+    m.pose.faces = body.rest.faces;
+    // One rest pose for all: the first motion's (every sequence starts with the same keyframe).
+    m.pose.rest = s.motions.empty() ? (*poses)[0] : s.motions.front().pose.rest;
+    m.pose.deformed = poses->back();
+    m.pose.frames.assign(poses->begin() + 1, poses->end());
+    s.motions.push_back(std::move(m));
+  }
+  s.motion = s.motions.front().pose;
+  s.garment_region = region->faces;
+  s.attachment_body_faces = region->attachment_faces;
+  s.subdivisions = brace.subdivisions;
+  s.effects.contact = ContactModel::kUnilateral;
+  s.effects.friction = kPaperSceneFriction;
+  s.effects.attachments = true;
+  KGD_RETURN_IF_ERROR(CutGarmentFromMotion(&s, brace.name + ": garment " + brace.garment, brace.name + ": attachment bands"));
+  KGD_RETURN_IF_ERROR(ValidateSceneMotions(s));
+  return s;
+}
+
 Result<BodyRegion> ParametricGarmentRegion(const ParametricBody& body, const std::string& garment, double band_width_m) {
   const Positions& x = body.rest.vertices;
   const Faces& faces = body.rest.faces;

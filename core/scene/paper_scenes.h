@@ -46,4 +46,27 @@ inline constexpr double kPaperSceneFriction = 0.0;
 // from it (all cloth), unilateral contact (friction kPaperSceneFriction), and attachments.
 Result<SceneSpec> PaperScene(const ParametricBody& body, const PaperMotion& motion);
 
+// Scenes with several motions (docs/MODEL.md, "Motions with roles") on the parametric body: one
+// garment cut in a common rest pose, each motion from that pose to its own. The first motion is the
+// one the garment resists.
+struct BraceMotion {
+  std::string name;
+  MotionRole role = MotionRole::kResist;
+  double weight = 1.0;
+  JointAngles pose;  // angles not listed keep their value in the common rest pose (rad)
+  int frames = 4;
+};
+struct BraceScene {
+  std::string name;
+  std::string garment;  // as PaperMotion::garment
+  std::string description;
+  JointAngles rest;     // the common rest pose: angles differing from the body's rest pose (rad)
+  std::vector<BraceMotion> motions;
+  double budget = 0.15;
+  int subdivisions = 1;
+};
+// arm_brace, knee_brace, posture_shirt.
+std::vector<BraceScene> BraceScenes();
+Result<SceneSpec> BraceSceneOn(const ParametricBody& body, const BraceScene& brace);
+
 }  // namespace kgd

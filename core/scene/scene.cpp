@@ -1,5 +1,8 @@
 #include "core/scene/scene.h"
 
+#include <cmath>
+#include <cstdio>
+
 namespace kgd {
 namespace {
 
@@ -79,6 +82,78 @@ Status CutGarmentFromMotion(SceneSpec* s, const std::string& region_name, const 
   s->design.assign(s->garment.faces.rows(), kCloth);
   if (Status st = ValidateMesh(s->garment.vertices, s->garment.faces, region_name + " (garment in the rest pose)"); !st.ok()) return st;
   return ValidateMesh(s->initial, s->garment.faces, region_name + " (garment in the deformed pose)");
+}
+
+namespace {
+std::string Number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+}  // namespace
+
+const char* ToString(MotionRole role) { return role == MotionRole::kAllow ? "allow" : "resist"; }
+
+Result<MotionRole> MotionRoleFromName(const std::string& name, const std::string& what) {
+  if (name == "resist") return MotionRole::kResist;
+  if (name == "allow") return MotionRole::kAllow;
+  return Status::Error(what + ": role '" + name + "' is neither \"resist\" nor \"allow\"");
+}
+
+std::vector<SceneMotion> MotionsOf(const SceneSpec& s) {
+  if (!s.motions.empty()) return s.motions;
+  SceneMotion m;
+  m.name = s.name;
+  if (s.motion) m.pose = *s.motion;
+  return {m};
+}
+
+Status ValidateSceneMotions(const SceneSpec& s) {
+  if (s.motions.empty()) return Status::Ok();
+  if (!s.motion || s.garment_from_body.rows() == 0)
+    return Status::Error("motions: scene '" + s.name + "' lists motions, but its garment is not cut from a body (garment.region)");
+  const BodyMotion& own = *s.motion;
+  for (size_t i = 0; i < s.motions.size(); ++i) {
+    const SceneMotion& m = s.motions[i];
+    const std::string what = "motion '" + m.name + "'";
+    if (m.name.empty()) return Status::Error("motions[" + std::to_string(i) + "]: a motion needs a name");
+    for (size_t j = 0; j < i; ++j)
+      if (s.motions[j].name == m.name) return Status::Error(what + ": two motions have this name");
+    if (!(m.weight >= 0 && std::isfinite(m.weight)))
+      return Status::Error(what + ": weight " + Number(m.weight) + " must be finite and >= 0");
+    const BodyMotion& p = m.pose;
+    if (p.rest.rows() != own.rest.rows() || p.faces.rows() != own.faces.rows() || !(p.faces == own.faces))
+      return Status::Error(what + ": its rest pose has another topology (" + std::to_string(p.rest.rows()) + " vertices, " +
+                           std::to_string(p.faces.rows()) + " faces; the scene's body " + std::to_string(own.rest.rows()) + " and " +
+                           std::to_string(own.faces.rows()) + " with the same faces): the motions share one rest body and garment");
+    if (!(p.rest == own.rest)) return Status::Error(what + ": its rest pose differs from the scene's (the motions share one rest body and garment)");
+    if (p.deformed.rows() != own.rest.rows()) return Status::Error(what + ": its deformed pose has " + std::to_string(p.deformed.rows()) + " vertices, the rest pose " + std::to_string(own.rest.rows()));
+    for (size_t k = 0; k < p.frames.size(); ++k)
+      if (p.frames[k].rows() != own.rest.rows()) return Status::Error(what + ": frame " + std::to_string(k + 1) + " has another vertex count than the rest pose");
+  }
+  const SceneMotion& first = s.motions.front();
+  if (first.role != MotionRole::kResist || !(first.weight > 0))
+    return Status::Error("motion '" + first.name + "': the first motion is the scene's own and must be resisted with a weight > 0 (role " +
+                         ToString(first.role) + ", weight " + Number(first.weight) + ")");
+  if (!(first.pose.deformed.rows() == own.deformed.rows() && first.pose.deformed == own.deformed))
+    return Status::Error("motion '" + first.name + "': the first motion's deformed pose must be the scene's own (body.deformed)");
+  return Status::Ok();
+}
+
+Result<SceneSpec> SceneInMotion(const SceneSpec& spec, int m) {
+  SceneSpec s = spec;
+  if (m == 0) return s;
+  const SceneMotion& motion = spec.motions.at(m);
+  s.motion->deformed = motion.pose.deformed;
+  s.motion->frames = motion.pose.frames;
+  s.body = TriMesh{motion.pose.deformed, spec.motion->faces};
+  s.body_field = nullptr;
+  Result<Positions> on_body = GarmentOnBody(spec, motion.pose.deformed, &s.body_field);
+  if (!on_body.ok()) return on_body.status().WithContext("motion '" + motion.name + "' (deformed pose): ");
+  s.on_body = std::move(on_body).value();
+  s.initial = s.on_body;
+  if (Status st = ValidateMesh(s.initial, s.garment.faces, "motion '" + motion.name + "' (garment in the deformed pose)"); !st.ok()) return st;
+  return s;
 }
 
 Result<SceneSpec> SceneAtFrame(const SceneSpec& spec, int frame) {

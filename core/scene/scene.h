@@ -16,6 +16,23 @@
 
 namespace kgd {
 
+// What a design does with a motion (docs/MODEL.md, "Motions with roles"): resist it (the paper's
+// objective: the reinforcement stores the motion's energy) or allow it (the reinforcement's energy in
+// the motion is penalized).
+enum class MotionRole { kResist, kAllow };
+const char* ToString(MotionRole role);  // "resist", "allow"
+// "resist" / "allow"; else an error naming `what`.
+Result<MotionRole> MotionRoleFromName(const std::string& name, const std::string& what);
+
+// One motion of a scene with several: over the scene's rest body and garment, the body moves to
+// `pose.deformed` (through `pose.frames`). `pose.rest` and `pose.faces` are the scene's body's.
+struct SceneMotion {
+  std::string name;
+  MotionRole role = MotionRole::kResist;
+  double weight = 1.0;  // >= 0; 0: simulated and reported, no part of the objective
+  BodyMotion pose;
+};
+
 // A mirror plane (garment.symmetry): through `point_m` with unit `normal`. The default is the
 // parametric body's sagittal plane, x = 0 (core/body/parametric_body.h: +x is the body's left).
 // tolerance_m: how far a face's mirrored rest centroid may lie from its partner's; 0: twice the
@@ -63,7 +80,24 @@ struct SceneSpec {
   // The field of `body` where the scene already built it (a cut garment placed on it);
   // BuildGarmentModel builds it when empty.
   std::shared_ptr<const BodyField> body_field;
+
+  // The motions a design weighs (a garment cut from the body only). Empty: one motion, the scene's
+  // own, named after the scene, resisted with weight 1. Else motions[0] is the scene's own motion
+  // (its pose = `motion`) and must be resisted with a positive weight; the others share its rest pose.
+  std::vector<SceneMotion> motions;
 };
+
+// The scene's motions as a design sees them: `motions`, or the scene's own as one resisted motion.
+std::vector<SceneMotion> MotionsOf(const SceneSpec& spec);
+
+// Ok for a scene without `motions`; else: a garment cut from the body, unique non-empty names,
+// finite weights >= 0, every pose over the scene's rest body (same topology and rest positions), the
+// first motion resisted with a positive weight. The message names the motion.
+Status ValidateSceneMotions(const SceneSpec& spec);
+
+// The scene in motion m of MotionsOf(spec) (0: the scene itself): body, its field, the garment on it
+// (on_body = initial) and the motion's frames. Precondition: ValidateSceneMotions(spec) is ok.
+Result<SceneSpec> SceneInMotion(const SceneSpec& spec, int m);
 
 // Cuts the garment from `spec->motion` (region, subdivisions, attachment body faces) and sets garment,
 // initial, body, attachment_faces, garment_from_body and on_body. Resets the design to all cloth.
