@@ -252,6 +252,15 @@ try {
   await page.selectOption('#color-mode', 'energy');
   await until('the energy colouring', () => page.evaluate(() => !document.getElementById('colorbar').hidden && !window.kgd.state.loading));
   await page.screenshot({ path: path.join(artifacts, 'energy.png') });
+  // Skin pressure: the final design's pressure in the chosen frame coloured on the body, with its peak and p95.
+  await page.selectOption('#color-mode', 'pressure');
+  await until('the skin pressure', () => page.evaluate(() => window.kgd.state.pressureFigures?.peak > 0 && !window.kgd.state.loading && !window.kgd.state.pending));
+  const pressureText = await page.textContent('#metrics');
+  check(/skin pressure peak [\d.]+ kPa \([\d.]+ mmHg\), p95 [\d.]+ kPa/.test(pressureText), `the skin pressure is described ("${pressureText}")`);
+  check((await page.textContent('#colorbar-unit')) === 'kPa', 'the colour bar of the skin pressure is in kPa');
+  await page.screenshot({ path: path.join(artifacts, 'pressure.png') });
+  await page.selectOption('#color-mode', 'energy');
+  await until('the energy colouring again', () => page.evaluate(() => window.kgd.state.target?.kind === 'iteration' && !window.kgd.state.loading && !window.kgd.state.pending));
 
   // Download the shown iteration as PLY.
   const [download] = await Promise.all([page.waitForEvent('download'), page.click('#downloads a[href$="design.ply"]')]);
