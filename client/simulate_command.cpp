@@ -322,6 +322,8 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
     }
     if (machine.jobs > 0) std::printf("predicted: draft/standard/precise, the solves at %.2fx the reference machine (learned from the design jobs run here: %d)\n", machine.factor, machine.jobs);
     else std::printf("predicted: draft/standard/precise on the reference machine (a design job finished here tunes them to this one)\n");
+    std::printf("design constraints: kgd design/submit --symmetric (mirror symmetry about the body's sagittal plane, x = 0); in a scene "
+                "file, garment.keep_out, garment.keep_in and garment.symmetry (kgd scene keys)\n");
     *exit_code = 0;
   });
 
