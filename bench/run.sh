@@ -9,7 +9,8 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 results="$build/bench-results"
 mkdir -p "$results"
 rm -f "$results"/*.json
-"$build/client/kgd" machine
+machine=$("$build/client/kgd" machine)  # date, CPU, cores: the tables' header
+echo "$machine"
 # A benchmark program that fails leaves its tables as they were; the others are still written.
 failed=()
 for b in simulate body design; do
@@ -19,7 +20,7 @@ done
 for block in performance-simulator-cold performance-simulator-warm performance-design-engine performance-bodies; do
   if table=$(python3 "$root/bench/tables.py" "$block" "$results"/*.json); then
     printf '%s\n' "$table" | python3 "$root/scripts/generated_block.py" replace "$root/docs/PERFORMANCE.md" "$block" \
-      --command "make bench" --machine "$("$build/client/kgd" machine)"
+      --command "make bench" --machine "$machine"
   else
     echo "docs/PERFORMANCE.md: $block not written"
   fi

@@ -17,7 +17,8 @@ if [ ${#scenes[@]} -eq 0 ]; then
 fi
 kgd="$build/client/kgd"
 mkdir -p "$out"
-"$kgd" machine
+machine=$("$kgd" machine)  # date, CPU, cores: the tables' header
+echo "$machine"
 failed=()
 for s in "${scenes[@]}"; do
   echo "== $s"
@@ -31,7 +32,7 @@ fi
 for block in results-table-1 results-curves; do
   if table=$(python3 "$root/scripts/study_tables.py" "$block" "$out"); then
     printf '%s\n' "$table" | python3 "$root/scripts/generated_block.py" replace "$root/docs/RESULTS.md" "$block" \
-      --command "make study" --machine "$("$kgd" machine)"
+      --command "make study" --machine "$machine"
   else
     echo "docs/RESULTS.md: $block not written (it needs the seven built-in scenes' files in $out)"
   fi
