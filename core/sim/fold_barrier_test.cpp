@@ -152,5 +152,50 @@ TEST(FoldBarrier, ZeroWhereInactiveAndContinuousAcrossActivation) {
   EXPECT_TRUE(testing::MatchesFiniteDifferences(term(false), x, {.step = 1e-9, .tolerance = 1e-5}));
 }
 
+// Deep in the barrier (|b'| >= kFoldBarrierExactHessianSlope, q below 1e-4) the projected Hessian is the
+// exact one with its negative eigenvalues clamped: the moves that leave q unchanged to first order and
+// lower it to second order (turning or collapsing the triangle) cost energy in Newton's model, as they
+// do in the energy. Above it, the projected Hessian is the Gauss-Newton part, rank one, blind to them.
+TEST(FoldBarrier, DeepInTheBarrierTheProjectedHessianSeesTheTurnsThatLowerQ) {
+  const Eigen::Vector3d n = Eigen::Vector3d(0.1, -0.2, 1.0).normalized();
+  const double area = 0.5e-4;
+  std::mt19937 rng(11);
+  std::normal_distribution<double> normal;
+  for (double q : {1e-3, 1e-5, 1e-8}) {
+    SCOPED_TRACE(::testing::Message() << "q " << q);
+    const Vector9d x = TriangleWithAreaRatio(q, 0.7, 1.2, n);
+    const bool deep = std::abs(FoldBarrierFunction(q).db) >= kFoldBarrierExactHessianSlope;
+    EXPECT_EQ(deep, q < 1e-4);
+    Eigen::VectorXd g;
+    Eigen::MatrixXd H, P;
+    FoldBarrierOf(n, area, false)(x, &g, &H);
+    FoldBarrierOf(n, area, true)(x, nullptr, &P);
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> exact(H), projected(P), added(P - H);
+    EXPECT_GE(projected.eigenvalues().minCoeff(), -1e-9 * P.norm());
+    if (!deep) {
+      // The Gauss-Newton part b'' grad q grad q^T = b'' g g^T / b'^2.
+      const FoldBarrierValue b = FoldBarrierFunction(q);
+      EXPECT_LT((P - (b.ddb / (b.db * b.db)) * g * g.transpose()).norm(), 1e-9 * P.norm());
+      continue;
+    }
+    const Eigen::MatrixXd clamped = exact.eigenvectors() * exact.eigenvalues().cwiseMax(0.0).asDiagonal() * exact.eigenvectors().transpose();
+    EXPECT_LT((P - clamped).norm(), 1e-9 * P.norm());
+    EXPECT_GE(added.eigenvalues().minCoeff(), -1e-9 * P.norm()) << "the projection only adds stiffness";
+    // Random moves with grad q . d = 0 along which the energy curves upwards (q falls to second order).
+    const Eigen::VectorXd grad_q = g.normalized();
+    int turns = 0;
+    for (int k = 0; k < 50; ++k) {
+      Eigen::VectorXd d(9);
+      for (int i = 0; i < 9; ++i) d[i] = normal(rng);
+      d -= grad_q.dot(d) * grad_q;
+      const double curvature = d.dot(H * d);
+      if (!(curvature > 0)) continue;
+      ++turns;
+      EXPECT_GE(d.dot(P * d), curvature * (1 - 1e-6));
+    }
+    EXPECT_GT(turns, 5);
+  }
+}
+
 }  // namespace
 }  // namespace kgd
