@@ -162,7 +162,7 @@ void BM_WarmResolveBeso(benchmark::State& state) {
   const BesoSettings beso;
   const int nf = static_cast<int>(s.design.size()), nv = static_cast<int>(s.initial.rows());
   Eigen::VectorXd area(nf);
-  for (int f = 0; f < nf; ++f) area[f] = sys.elements()[f].rest_area_m2;
+  for (int f = 0; f < nf; ++f) area[f] = sys.rest_areas_m2()[f];
   const double total_area = area.sum();
   double target = total_area;
   std::vector<uint8_t> design = s.design;

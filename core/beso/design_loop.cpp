@@ -90,11 +90,9 @@ MotionMetrics MetricsOfMotion(const SceneMotion& motion, const SimulationResult&
 }  // namespace
 
 double BesoIteration::*TermTimeMetric(std::string_view term) {
-  static const std::pair<std::string_view, double BesoIteration::*> metrics[] = {
-      {"membrane", &BesoIteration::membrane_s},   {"fold_barrier", &BesoIteration::fold_barrier_s},
-      {"attachment", &BesoIteration::attachment_s}, {"contact", &BesoIteration::contact_s},
-      {"friction", &BesoIteration::friction_s},   {"bending", &BesoIteration::bending_s},
-  };
+#define KGD_TERM_TIME_ENTRY(Y, Class, key, Type, effect, value, effect_what, time_what) {#key, &BesoIteration::key##_s},
+  static const std::pair<std::string_view, double BesoIteration::*> metrics[] = {KGD_ENERGY_TERMS(KGD_TERM_TIME_ENTRY, )};
+#undef KGD_TERM_TIME_ENTRY
   for (const auto& [name, member] : metrics)
     if (name == term) return member;
   return nullptr;
@@ -195,7 +193,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
   Simulator sim(&sys);
   const Positions& reference = scene.on_body.rows() ? scene.on_body : scene.initial;
   Eigen::VectorXd area(nf);
-  for (int f = 0; f < nf; ++f) area[f] = sys.elements()[f].rest_area_m2;
+  for (int f = 0; f < nf; ++f) area[f] = sys.rest_areas_m2()[f];
   const double total_area = area.sum(), final_area = settings.budget * total_area;
   // Keep-out, keep-in and symmetry: BESO then decides on units (design_constraints.h). Without them
   // the loop is the plain one below, unchanged.

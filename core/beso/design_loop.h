@@ -41,19 +41,16 @@ namespace kgd {
   KGD_BESO_PROFILE_METRICS(X)
 
 // Where an iteration's equilibrium solve spent its time (s; Newton's parts, then each energy term's
-// evaluations: 0 for a term the scene does not build). Design files written before these existed read 0.
+// evaluations, <key>_s for each term of the term list, core/sim/term_list.h: 0 for a term the scene
+// does not build). Design files written before these existed read 0.
 #define KGD_BESO_PROFILE_METRICS(X)                                                                          \
   X(double, assembly_s, "energy, gradient and Hessian assembly of the solve (Newton)")                      \
   X(double, factorization_s, "Cholesky factorizations of the solve (Newton)")                               \
   X(double, linear_solve_s, "triangular and conjugate-gradient solves (Newton)")                            \
   X(double, line_search_s, "line search (energy trials, contact projection)")                               \
   X(double, body_field_query_s, "body-field queries outside the contact term (the contact projection)")     \
-  X(double, membrane_s, "membrane term evaluations")                                                        \
-  X(double, fold_barrier_s, "fold barrier term evaluations (0: not built)")                                 \
-  X(double, attachment_s, "attachment term evaluations (0: not built)")                                     \
-  X(double, contact_s, "contact term evaluations with their body-field queries (0: not built)")            \
-  X(double, friction_s, "friction term evaluations (0: not built)")                                         \
-  X(double, bending_s, "bending term evaluations (0: not built)")
+  KGD_ENERGY_TERMS(KGD_BESO_TERM_TIME_METRIC, X)
+#define KGD_BESO_TERM_TIME_METRIC(X, Class, key, Type, effect, value, effect_what, time_what) X(double, key##_s, time_what)
 
 // One motion's figures in an iteration (docs/MODEL.md, "Motions with roles"): the design simulated in
 // that motion. density_ratio: against the motion's own fully reinforced design (iteration 0).

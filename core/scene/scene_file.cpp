@@ -152,22 +152,28 @@ class Reader {
 // garment (cut from the body's motion, or a mesh of its own) and its design, the budget, materials, the
 // body and contact, attachments, clamps, the solver.
 
+// An energy term's effect switch (core/sim/term_list.h), read by its type.
+Status ReadEffect(const Reader& r, const json& e, const char* key, bool* out) { return r.Bool(e, "effects", key, out); }
+Status ReadEffect(const Reader& r, const json& e, const char* key, double* out) { return r.Number(e, "effects", key, out); }
+Status ReadEffect(const Reader& r, const json& e, const char* key, ContactModel* out) {
+  std::string contact = "none";
+  KGD_RETURN_IF_ERROR(r.Choice(e, "effects", key, {"none", "unilateral", "bilateral"}, &contact));
+  *out = contact == "none" ? ContactModel::kNone : contact == "unilateral" ? ContactModel::kUnilateral : ContactModel::kBilateral;
+  return Status::Ok();
+}
+
 Status ReadEffects(const Reader& r, const json& doc, SceneSpec* s) {
   if (doc.contains(sk::Scene::effects)) {
     const json& e = doc[sk::Scene::effects];
     KGD_RETURN_IF_ERROR(r.CheckKeys(e, "effects", "SceneEffects"));
-    KGD_RETURN_IF_ERROR(r.Number(e, "effects", sk::SceneEffects::friction, &s->effects.friction));
-    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", sk::SceneEffects::fold_barrier, &s->effects.fold_barrier));
-    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", sk::SceneEffects::membrane, &s->effects.membrane));
-    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", sk::SceneEffects::attachments, &s->effects.attachments));
+#define KGD_READ_EFFECT(Y, Class, key, Type, effect, value, effect_what, time_what) \
+  KGD_RETURN_IF_ERROR(ReadEffect(r, e, sk::SceneEffects::effect, &s->effects.effect));
+    KGD_ENERGY_TERMS(KGD_READ_EFFECT, )
+#undef KGD_READ_EFFECT
     KGD_RETURN_IF_ERROR(r.Bool(e, "effects", sk::SceneEffects::clamps, &s->effects.clamps));
-    KGD_RETURN_IF_ERROR(r.Bool(e, "effects", sk::SceneEffects::bending, &s->effects.bending));
-    std::string relax = "exact", contact = "none";
+    std::string relax = "exact";
     KGD_RETURN_IF_ERROR(r.Choice(e, "effects", sk::SceneEffects::relaxation, {"exact", "authors", "none"}, &relax));
-    KGD_RETURN_IF_ERROR(r.Choice(e, "effects", sk::SceneEffects::contact, {"none", "unilateral", "bilateral"}, &contact));
     s->effects.relaxation = relax == "exact" ? Relaxation::kExact : relax == "authors" ? Relaxation::kAuthors : Relaxation::kNone;
-    s->effects.contact = contact == "none" ? ContactModel::kNone
-                        : contact == "unilateral" ? ContactModel::kUnilateral : ContactModel::kBilateral;
   }
 
   return Status::Ok();
@@ -598,6 +604,10 @@ Status WriteIndexList(const std::string& path, const std::vector<int>& ids) {
 const char* RelaxationName(Relaxation r) {
   return r == Relaxation::kExact ? "exact" : r == Relaxation::kAuthors ? "authors" : "none";
 }
+nlohmann::ordered_json EffectJson(bool on) { return on; }
+nlohmann::ordered_json EffectJson(double value) { return value; }
+const char* ContactName(ContactModel c);
+nlohmann::ordered_json EffectJson(ContactModel c) { return ContactName(c); }
 const char* ContactName(ContactModel c) {
   return c == ContactModel::kNone ? "none" : c == ContactModel::kUnilateral ? "unilateral" : "bilateral";
 }
@@ -672,12 +682,11 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
   doc[sk::Scene::materials] = {{sk::SceneMaterials::lame, s.lame == LameConversion::kSolid3D ? "solid3d" : "plane_stress"},
                       {sk::SceneMaterials::cloth, MaterialJson(s.cloth)},
                       {sk::SceneMaterials::reinforced, MaterialJson(s.reinforced)}};
-  doc[sk::Scene::effects] = {{sk::SceneEffects::membrane, s.effects.membrane}, {sk::SceneEffects::relaxation, RelaxationName(s.effects.relaxation)},
-                    {sk::SceneEffects::fold_barrier, s.effects.fold_barrier},
-                    {sk::SceneEffects::contact, ContactName(s.effects.contact)}, {sk::SceneEffects::friction, s.effects.friction},
-                    {sk::SceneEffects::attachments, s.effects.attachments},
-                    {sk::SceneEffects::clamps, s.effects.clamps},
-                    {sk::SceneEffects::bending, s.effects.bending}};
+  doc[sk::Scene::effects] = {{sk::SceneEffects::relaxation, RelaxationName(s.effects.relaxation)}, {sk::SceneEffects::clamps, s.effects.clamps}};
+#define KGD_WRITE_EFFECT(Y, Class, key, Type, effect, value, effect_what, time_what) \
+  doc[sk::Scene::effects][sk::SceneEffects::effect] = EffectJson(s.effects.effect);
+  KGD_ENERGY_TERMS(KGD_WRITE_EFFECT, )
+#undef KGD_WRITE_EFFECT
   if (s.body && !s.motion) {
     KGD_RETURN_IF_ERROR(WriteObj((dir / "body.obj").string(), s.body->vertices, s.body->faces));
     doc[sk::Scene::body] = {{sk::SceneBody::mesh, "body.obj"}, {sk::SceneBody::support_scale, s.body_support_scale}};

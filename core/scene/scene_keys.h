@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "core/sim/term_list.h"
+
 // X(section, key, what)
 #define KGD_SCENE_KEYS(X)                                                                             \
   X(Scene, name, "the scene's name")                                                                  \
@@ -43,14 +45,9 @@
   X(SceneMaterial, youngs_modulus_Pa, "Young's modulus, Pa")                                          \
   X(SceneMaterial, poisson_ratio, "Poisson's ratio")                                                  \
   X(SceneMaterial, thickness_m, "thickness, m")                                                       \
-  X(SceneEffects, membrane, "the StVK membrane (default true)")                                       \
   X(SceneEffects, relaxation, "\"exact\" (default), \"authors\" or \"none\"")                         \
-  X(SceneEffects, fold_barrier, "the barrier against folded triangles (default true)")                \
-  X(SceneEffects, contact, "\"none\" (default), \"unilateral\" or \"bilateral\"")                     \
-  X(SceneEffects, friction, "Coulomb coefficient mu (default 0; needs contact)")                      \
-  X(SceneEffects, attachments, "the attachment springs (default false)")                              \
   X(SceneEffects, clamps, "the clamps (default false)")                                               \
-  X(SceneEffects, bending, "discrete-shell bending of the cloth (default false)")                     \
+  KGD_ENERGY_TERMS(KGD_SCENE_EFFECT_KEY, X) /* one switch per energy term: core/sim/term_list.h */  \
   X(SceneBody, mesh, "the body in the simulated pose (a garment of its own, with contact)")           \
   X(SceneBody, rest, "with garment.region: the motion's rest pose")                                   \
   X(SceneBody, deformed, "with garment.region: its deformed pose")                                    \
@@ -74,6 +71,7 @@
   X(SceneSolver, project_contact_crossings, "project vertices that cross the body back out")          \
   X(SceneSolver, local_steps, "local Newton steps on the few vertices that still move")
 // (the list ends here)
+#define KGD_SCENE_EFFECT_KEY(X, Class, key, Type, effect, value, effect_what, time_what) X(SceneEffects, effect, effect_what)
 
 namespace kgd {
 

@@ -3,7 +3,6 @@
 #include <algorithm>
 
 #include "core/sim/energy_terms.h"
-#include "core/sim/garment_system.h"
 
 namespace kgd {
 
@@ -27,16 +26,19 @@ double EvaluateAttachmentFace(const Attachments& a, int i, const Eigen::Vector3d
 
 namespace {
 
+using Vector9d = Eigen::Matrix<double, 9, 1>;
+using Matrix9d = Eigen::Matrix<double, 9, 9>;
+
 class AttachmentFaceTerm final : public EnergyTerm {
  public:
-  explicit AttachmentFaceTerm(const TermContext& context) : c_(context), index_(context.model.faces.rows(), -1) {
+  explicit AttachmentFaceTerm(const TermContext& context) : model_(context.model), index_(context.model.faces.rows(), -1) {
     const Attachments& a = context.model.attachments;
     for (size_t i = 0; i < a.faces.size(); ++i) index_[a.faces[i]] = static_cast<int>(i);
   }
   Stencil stencil() const override { return Stencil::kFace; }
   ElementEnergy Evaluate(int f, const int* v, const Positions& x, double* g, double* H) override {
     if (index_[f] < 0) return {0.0, false};
-    const Attachments& a = c_.model.attachments;
+    const Attachments& a = model_.attachments;
     const Eigen::Vector3d x0 = x.row(v[0]), x1 = x.row(v[1]), x2 = x.row(v[2]);
     Vector9d ga;
     const double e = EvaluateAttachmentFace(a, index_[f], x0, x1, x2, g ? &ga : nullptr);
@@ -53,7 +55,7 @@ class AttachmentFaceTerm final : public EnergyTerm {
   }
 
  private:
-  TermContext c_;
+  const GarmentModel& model_;
   std::vector<int> index_;  // per face: its index in attachments.faces, or -1
 };
 

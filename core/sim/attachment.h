@@ -9,16 +9,9 @@
 #include <vector>
 
 #include "core/mesh/trimesh.h"
+#include "core/sim/garment_model.h"
 
 namespace kgd {
-
-inline constexpr double kDefaultAttachmentStiffness = 3000.0;  // N/m
-
-struct Attachments {
-  std::vector<int> faces;  // garment face indices
-  Positions anchors;       // one anchor per attached face (m)
-  double stiffness_N_per_m = kDefaultAttachmentStiffness;
-};
 
 // Energy of attached face i (index into attachments.faces) and its 9-gradient; the Hessian is
 // (2 k_f / 9) [1 1 1; 1 1 1; 1 1 1] (x) I3, constant and PSD, k_f = k / n.

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "core/sim/finite_difference_check.h"
+#include "core/sim/membrane.h"
 #include "core/sim/garment_system.h"
 #include "core/sim/term_test_support.h"
 

@@ -8,7 +8,7 @@
 #include <limits>
 
 #include "core/sim/energy_terms.h"
-#include "core/sim/garment_system.h"
+#include "core/sim/garment_model.h"
 
 namespace kgd {
 namespace {
@@ -80,7 +80,7 @@ namespace {
 
 class BendingHingeTerm final : public EnergyTerm {
  public:
-  explicit BendingHingeTerm(const TermContext& context) : c_(context) {
+  explicit BendingHingeTerm(const TermContext& context) : model_(context.model), hinges_(context.hinges) {
     const Hinges& h = context.hinges;
     const Positions& rest = context.model.rest;
     rest_angle_.resize(h.vertices.size());
@@ -88,7 +88,7 @@ class BendingHingeTerm final : public EnergyTerm {
     for (size_t i = 0; i < h.vertices.size(); ++i) {
       const auto& v = h.vertices[i];
       rest_angle_[i] = HingeAngle(rest.row(v[0]), rest.row(v[1]), rest.row(v[2]), rest.row(v[3]));
-      const double area = context.elements[h.faces[i][0]].rest_area_m2 + context.elements[h.faces[i][1]].rest_area_m2;
+      const double area = RestArea(rest, context.model.faces, h.faces[i][0]) + RestArea(rest, context.model.faces, h.faces[i][1]);
       weight_[i] = 0.5 * 3.0 * (rest.row(v[1]) - rest.row(v[0])).squaredNorm() / area;
     }
     stiffness_[0] = BendingStiffness(context.model.cloth);
@@ -98,8 +98,8 @@ class BendingHingeTerm final : public EnergyTerm {
   ElementEnergy Evaluate(int e, const int* v, const Positions& x, double* g, double* H) override {
     Vector12d q;
     for (int a = 0; a < 4; ++a) q.segment<3>(3 * a) = x.row(v[a]).transpose();
-    const auto& faces = c_.hinges.faces[e];
-    const double D = 0.5 * (stiffness_[c_.model.design[faces[0]]] + stiffness_[c_.model.design[faces[1]]]);
+    const auto& faces = hinges_.faces[e];
+    const double D = 0.5 * (stiffness_[model_.design[faces[0]]] + stiffness_[model_.design[faces[1]]]);
     Vector12d gb;
     Matrix12d Hb;
     const double energy = EvaluateHingeBending(q, rest_angle_[e], D * weight_[e], g ? &gb : nullptr, H ? &Hb : nullptr, true);
@@ -111,7 +111,12 @@ class BendingHingeTerm final : public EnergyTerm {
   std::string NonFiniteMeaning() const override { return ": a triangle of the hinge collapsed"; }
 
  private:
-  TermContext c_;
+  // The membrane's rest area of face f (MakeMembraneElement).
+  static double RestArea(const Positions& rest, const Faces& faces, int f) {
+    return MakeMembraneElement(rest.row(faces(f, 0)), rest.row(faces(f, 1)), rest.row(faces(f, 2))).rest_area_m2;
+  }
+  const GarmentModel& model_;
+  const Hinges& hinges_;
   std::vector<double> rest_angle_, weight_;
   double stiffness_[2];
 };

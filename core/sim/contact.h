@@ -10,12 +10,9 @@
 
 #include "core/body/body_field.h"
 #include "core/sim/energy_terms.h"
+#include "core/sim/garment_model.h"
 
 namespace kgd {
-
-enum class ContactModel { kNone, kUnilateral, kBilateral };
-
-inline constexpr double kDefaultContactStiffness = 5000.0;  // N/m
 
 struct ContactEvaluation {
   double energy_J = 0;
@@ -31,18 +28,36 @@ ContactEvaluation EvaluateContactVertex(const BodyField& field, const Eigen::Vec
                                         Eigen::Matrix3d* hess, bool project_hessian);
 
 // Contact as an energy term of the garment system (energy_term.h), per vertex. It also keeps, per
-// vertex, Phi (NaN where unsupported) and grad Phi of its latest evaluation, which the system records
-// for the line search's projection (GarmentSystem::ProjectCrossingsOntoBody).
+// vertex, Phi (NaN where unsupported) and grad Phi of its latest evaluation, which evaluation records
+// keep (RecordElement: Phi, then grad Phi) for the line search's projection (ProjectTrial).
+//
+// ProjectTrial, unilateral contact only (otherwise it moves nothing): corrects a line-search trial of a
+// step from x_from where the Newton model's linear view of the skin fails, moving fully free vertices
+// along the field gradient (a few Newton iterations on Phi):
+//  - a vertex off the body at the start (Phi >= 0) has no contact stiffness in the Hessian, so the
+//    step may carry it deep into the body and the penalty then cuts the whole step to a sliver (a wasted
+//    factorization): if it ends inside, it goes back to just inside the surface
+//    (Phi = -kContactProjectionDepth_m), where the next Hessian sees its contact stiffness;
+//  - a vertex in contact (Phi < 0) that slides along the curved skin ends micrometres deeper (concave
+//    skin) or shallower (convex) than the linear model's Phi + grad Phi . step: it goes to that depth,
+//    from either side (if the model predicts lift-off, it is treated as a crossing). Without this, cloth
+//    sliding on a limb spends most Newton iterations of a BESO re-solve undoing micrometre penetrations
+//    and lift-offs.
+inline constexpr double kContactProjectionDepth_m = 1e-10;
+
 class ContactTerm final : public EnergyTerm {
  public:
   explicit ContactTerm(const TermContext& context);
   Stencil stencil() const override { return Stencil::kVertex; }
   ElementEnergy Evaluate(int v, const int* stencil, const Positions& x, double* g, double* H) override;
-  double last_phi(int v) const { return phi_[v]; }
-  const Eigen::Vector3d& last_phi_grad(int v) const { return phi_grad_[v]; }
+  int RecordWidth() const override { return 4; }
+  void RecordElement(int v, double* out) const override;
+  int ProjectTrial(const std::vector<double>& recorded, const Positions& x_from, const std::vector<int>& free_index,
+                   Positions* trial) override;
 
  private:
-  TermContext c_;
+  const GarmentModel& model_;
+  std::vector<NeighborCache>& caches_;
   std::vector<double> phi_;
   std::vector<Eigen::Vector3d> phi_grad_;
 };

@@ -3,8 +3,8 @@
 namespace kgd {
 
 const std::vector<TermRegistration>& EnergyTermRegistry() {
-#define KGD_REGISTER_TERM(Name, key, place) {key, place, Make##Name},
-  static const std::vector<TermRegistration> registry = {KGD_ENERGY_TERMS(KGD_REGISTER_TERM)};
+#define KGD_REGISTER_TERM(Y, Class, key, Type, effect, value, effect_what, time_what) {#key, Make##Class##Term},
+  static const std::vector<TermRegistration> registry = {KGD_ENERGY_TERMS(KGD_REGISTER_TERM, )};
 #undef KGD_REGISTER_TERM
   return registry;
 }

@@ -1,58 +1,39 @@
-// The registry of energy terms: every term the garment system knows, the order an element sums them
-// in, and the order the energy breakdown lists them in. The system makes each registered term whose
-// factory returns one (the scene's effects switch it on) and evaluates only those.
+// The registry of energy terms: every term of the term list (term_list.h), in its order, with its
+// factory. The system makes each registered term whose factory returns one (the scene's effects
+// switch it on) and evaluates only those.
 #pragma once
 
 #include <memory>
 #include <vector>
 
 #include "core/sim/energy_term.h"
+#include "core/sim/term_list.h"
 
 namespace kgd {
 
 struct GarmentModel;
-struct Lame;
-struct MembraneElement;
 struct NeighborCache;
-struct FrictionVertex;
 
-// What a term may read when it is made. The references stay valid for the system's life; the model's
-// design changes in place between solves (GarmentSystem::SetDesign), the lagged friction data with
-// GarmentSystem::LagFriction.
+// What a term may read when it is made. `model`, `caches` and `hinges` stay valid for the system's
+// life (the model's design changes in place between solves: GarmentSystem::SetDesign); `initial`, the
+// positions the system is constructed with, only while the term is made.
 struct TermContext {
   const GarmentModel& model;
-  const std::vector<MembraneElement>& elements;         // per face: rest shape and rest area
-  const Lame* lame;                                      // per material: cloth, reinforced
-  const double* thickness_m;                             // per material
-  const std::vector<Eigen::Vector3d>& fold_reference;    // per face: unit normal folds are measured against
-  std::vector<NeighborCache>& caches;                    // per vertex: the body field's neighbour lists
-  const std::vector<FrictionVertex>& friction;           // per vertex, lagged (empty until lagged)
+  const Positions& initial;
+  std::vector<NeighborCache>& caches;  // per vertex: the body field's neighbour lists (empty without a body)
   const Hinges& hinges;
 };
 
-// Every term, in the order an element sums the terms of its stencil: X(Name, "key", breakdown place).
-// A term's factory MakeName (beside the term, in its own .cpp) returns nullptr when the model leaves
-// it off. "key" names it in the energy breakdown (messages print it with spaces); the breakdown lists
-// the terms, and its total sums them, by their place.
-#define KGD_ENERGY_TERMS(X)               \
-  X(MembraneTerm, "membrane", 0)          \
-  X(FoldBarrierTerm, "fold_barrier", 3)   \
-  X(AttachmentTerm, "attachment", 2)      \
-  X(ContactTerm, "contact", 1)            \
-  X(FrictionTerm, "friction", 4)          \
-  X(BendingTerm, "bending", 5)            \
-  /* a new term: one line above this one */
-
-#define KGD_DECLARE_TERM_FACTORY(Name, key, place) std::unique_ptr<EnergyTerm> Make##Name(const TermContext& context);
-KGD_ENERGY_TERMS(KGD_DECLARE_TERM_FACTORY)
+#define KGD_DECLARE_TERM_FACTORY(Y, Class, key, Type, effect, value, effect_what, time_what) \
+  std::unique_ptr<EnergyTerm> Make##Class##Term(const TermContext& context);
+KGD_ENERGY_TERMS(KGD_DECLARE_TERM_FACTORY, )
 #undef KGD_DECLARE_TERM_FACTORY
 
 struct TermRegistration {
-  const char* name;
-  int breakdown_order;
+  const char* name;  // the term list's key
   std::unique_ptr<EnergyTerm> (*make)(const TermContext&);
 };
-// KGD_ENERGY_TERMS as a table, in its order.
+// The term list as a table, in its order.
 const std::vector<TermRegistration>& EnergyTermRegistry();
 
 }  // namespace kgd

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <Eigen/Geometry>
 #include <cmath>
+#include "core/sim/contact.h"
 #include "core/sim/energy_terms.h"
-#include "core/sim/garment_system.h"
 
 namespace kgd {
 
@@ -52,33 +52,38 @@ FrictionVertex LagFriction(const Eigen::Vector3d& anchor, const Eigen::Vector3d&
 }
 
 // ---------------------------------------------------------------------------------------------------
-// Friction as an energy term of the garment system (energy_term.h): per vertex, from the lagged data
-// GarmentSystem::LagFriction keeps (none before the first lag).
+// Friction as an energy term of the garment system (energy_term.h).
 
-namespace {
+FrictionTerm::FrictionTerm(const TermContext& context)
+    : model_(context.model),
+      caches_(context.caches),
+      anchor_(context.model.friction_anchor.rows() == context.model.rest.rows() ? context.model.friction_anchor : context.initial) {}
 
-class FrictionVertexTerm final : public EnergyTerm {
- public:
-  explicit FrictionVertexTerm(const TermContext& context) : c_(context) {}
-  Stencil stencil() const override { return Stencil::kVertex; }
-  ElementEnergy Evaluate(int v, const int*, const Positions& x, double* g, double* H) override {
-    if (c_.friction.empty() || !(c_.friction[v].mu_lambda_N > 0)) return {0.0, false};
-    Eigen::Vector3d gf;
-    Eigen::Matrix3d Hf;
-    const double e = EvaluateFriction(c_.friction[v], x.row(v).transpose(), c_.model.friction_slip_m, g ? &gf : nullptr, H ? &Hf : nullptr);
-    if (g) std::copy_n(gf.data(), gf.size(), g);
-    if (H) std::copy_n(Hf.data(), Hf.size(), H);
-    return {e, true};
+ElementEnergy FrictionTerm::Evaluate(int v, const int*, const Positions& x, double* g, double* H) {
+  if (lagged_.empty() || !(lagged_[v].mu_lambda_N > 0)) return {0.0, false};
+  Eigen::Vector3d gf;
+  Eigen::Matrix3d Hf;
+  const double e = EvaluateFriction(lagged_[v], x.row(v).transpose(), model_.friction_slip_m, g ? &gf : nullptr, H ? &Hf : nullptr);
+  if (g) std::copy_n(gf.data(), gf.size(), g);
+  if (H) std::copy_n(Hf.data(), Hf.size(), H);
+  return {e, true};
+}
+
+void FrictionTerm::Lag(const Positions& x) {
+  const int nv = static_cast<int>(x.rows());
+  std::vector<FrictionVertex> lagged(nv);
+  for (int v = 0; v < nv; ++v) {
+    Eigen::Vector3d g;
+    EvaluateContactVertex(*model_.body, x.row(v).transpose(), &caches_[v], model_.effects.contact, model_.contact_stiffness_N_per_m, &g,
+                          nullptr, false);
+    // The penalty's force is along the field gradient, the body's normal there.
+    lagged[v] = LagFriction(anchor_.row(v).transpose(), g, g.norm(), model_.effects.friction);
   }
-
- private:
-  TermContext c_;
-};
-
-}  // namespace
+  lagged_ = std::move(lagged);
+}
 
 std::unique_ptr<EnergyTerm> MakeFrictionTerm(const TermContext& context) {
   const Effects& fx = context.model.effects;
-  return fx.friction > 0 && fx.contact != ContactModel::kNone ? std::make_unique<FrictionVertexTerm>(context) : nullptr;
+  return fx.friction > 0 && fx.contact != ContactModel::kNone ? std::make_unique<FrictionTerm>(context) : nullptr;
 }
 }  // namespace kgd

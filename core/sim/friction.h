@@ -14,10 +14,12 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <vector>
+
+#include "core/sim/energy_terms.h"
+#include "core/sim/garment_model.h"
 
 namespace kgd {
-
-inline constexpr double kDefaultFrictionSlip = 1e-4;  // eps (m)
 
 struct FrictionVertex {
   Eigen::Vector3d anchor = Eigen::Vector3d::Zero();         // a_v (m)
@@ -32,5 +34,25 @@ double EvaluateFriction(const FrictionVertex& v, const Eigen::Vector3d& x, doubl
 // The lagged data of a vertex at `x`: the normal force of the contact penalty there (lambda = |dE_c/dx|,
 // N), the field gradient (the body's normal direction) and the anchor.
 FrictionVertex LagFriction(const Eigen::Vector3d& anchor, const Eigen::Vector3d& normal, double normal_force_N, double mu);
+
+// Friction as an energy term of the garment system (energy_term.h), per vertex, from the lagged data
+// (none before the first Lag: the term is zero). Lag(x) takes each vertex's contact normal force and
+// tangent plane at x; the anchors are model.friction_anchor, or the positions the system starts from.
+class FrictionTerm final : public EnergyTerm {
+ public:
+  explicit FrictionTerm(const TermContext& context);
+  Stencil stencil() const override { return Stencil::kVertex; }
+  ElementEnergy Evaluate(int v, const int* stencil, const Positions& x, double* g, double* H) override;
+  bool lagged() const override { return true; }
+  void Lag(const Positions& x) override;
+  // Sets the lagged data directly (one per vertex), as Lag would.
+  void SetLagged(std::vector<FrictionVertex> lagged) { lagged_ = std::move(lagged); }
+
+ private:
+  const GarmentModel& model_;
+  std::vector<NeighborCache>& caches_;
+  Positions anchor_;
+  std::vector<FrictionVertex> lagged_;  // per vertex (empty: not lagged yet)
+};
 
 }  // namespace kgd

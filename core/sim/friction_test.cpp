@@ -22,11 +22,12 @@ struct SystemTerm : testing::TermContextStorage {
   std::unique_ptr<EnergyTerm> term;
 
   SystemTerm(const FrictionVertex& v, double eps) {
-    friction = {v};
     model.effects.contact = ContactModel::kUnilateral;
     model.effects.friction = 0.5;
     model.friction_slip_m = eps;
-    term = MakeFrictionTerm(Context());
+    auto friction = std::make_unique<FrictionTerm>(Context());
+    friction->SetLagged({v});
+    term = std::move(friction);
   }
   // The vertex as a term on its coordinates: the energy, gradient and Hessian the system assembles.
   testing::TermFunction Vertex() {

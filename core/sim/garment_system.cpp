@@ -87,25 +87,20 @@ Status ValidateModel(const GarmentModel& m) {
 GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : model_(std::move(model)) {
   UseSerialBlas();  // before our first parallel region: OpenBLAS's idle workers would take a core from it
   const int nv = num_vertices(), nf = num_faces();
-  elements_.resize(nf);
-  for (int f = 0; f < nf; ++f)
-    elements_[f] = MakeMembraneElement(model_.rest.row(model_.faces(f, 0)), model_.rest.row(model_.faces(f, 1)),
-                                       model_.rest.row(model_.faces(f, 2)));
-  if (model_.effects.friction > 0 && model_.friction_anchor.rows() != nv) model_.friction_anchor = initial;
-  // Folds are measured against the garment on the body, or the orientation it starts with.
-  if (model_.effects.fold_barrier) {
-    const Positions& ref = model_.fold_reference.rows() ? model_.fold_reference : initial;
-    fold_reference_.resize(nf);
-    for (int f = 0; f < nf; ++f) {
-      const Eigen::Vector3d a = ref.row(model_.faces(f, 0)), b = ref.row(model_.faces(f, 1)), c = ref.row(model_.faces(f, 2));
-      fold_reference_[f] = (b - a).cross(c - a).normalized();
-    }
+  rest_area_.resize(nf);
+  for (int f = 0; f < nf; ++f) {
+    // Half the determinant of the rest edge matrix in the triangle's own frame, as the membrane's
+    // rest shape has it (MakeMembraneElement), bit for bit.
+    const Eigen::Vector3d x0 = model_.rest.row(model_.faces(f, 0)), x1 = model_.rest.row(model_.faces(f, 1)),
+                          x2 = model_.rest.row(model_.faces(f, 2));
+    const Eigen::Vector3d e1 = x1 - x0, e2 = x2 - x0;
+    const Eigen::Vector3d b0 = e1.normalized();
+    const Eigen::Vector3d b1 = (e1.cross(e2)).cross(e1).normalized();
+    Eigen::Matrix2d dm;
+    dm << e1.norm(), e2.dot(b0), 0.0, e2.dot(b1);
+    rest_area_[f] = 0.5 * dm.determinant();
   }
   const Material mats[2] = {model_.cloth, model_.reinforced};
-  for (int k = 0; k < 2; ++k) {
-    lame_[k] = LameParameters(mats[k], model_.lame);
-    thickness_[k] = mats[k].thickness_m;
-  }
   mean_edge_ = MeanEdgeLength(model_.rest, model_.faces);
   stiffness_scale_ = std::max(mats[0].youngs_modulus_Pa * mats[0].thickness_m, mats[1].youngs_modulus_Pa * mats[1].thickness_m);
   force_scale_ = stiffness_scale_ * mean_edge_;
@@ -125,17 +120,18 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
   for (int& d : free_index_)
     if (d == 0) d = num_free_++;
 
-  if (model_.effects.contact != ContactModel::kNone) caches_.resize(nv);
+  if (model_.body) caches_.resize(nv);
   hinges_ = MeshHinges(model_.faces);
 
   // The terms the effects switch on, each in the group of its stencil.
-  const TermContext context{model_, elements_, lame_, thickness_, fold_reference_, caches_, friction_, hinges_};
+  const TermContext context{model_, initial, caches_, hinges_};
   for (const TermRegistration& reg : EnergyTermRegistry()) {
     std::unique_ptr<EnergyTerm> term = reg.make(context);
     registered_term_.push_back(term ? static_cast<int>(terms_.size()) : -1);
     if (!term) continue;
-    if (auto* c = dynamic_cast<ContactTerm*>(term.get())) contact_ = c;
     term_names_.push_back(reg.name);
+    record_width_.push_back(term->RecordWidth());
+    lagged_ = lagged_ || term->lagged();
     terms_.push_back(std::move(term));
   }
   term_seconds_.assign(terms_.size(), 0.0);
@@ -323,34 +319,9 @@ void GarmentSystem::ApplyClampsSmoothly(Positions* x) const {
   ApplyClamps(x);
 }
 
-double GarmentSystem::MaxFoldSafeStep(const Positions& x, const Positions& d) const {
-  if (!model_.effects.fold_barrier) return 1.0;
+double GarmentSystem::MaxSafeStep(const Positions& x, const Positions& d) const {
   double step = 1.0;
-#pragma omp parallel for schedule(static) reduction(min : step)
-  for (int f = 0; f < num_faces(); ++f) {
-    const int a = model_.faces(f, 0), b = model_.faces(f, 1), c = model_.faces(f, 2);
-    const Eigen::Vector3d e1 = x.row(b) - x.row(a), e2 = x.row(c) - x.row(a);
-    const Eigen::Vector3d d1 = d.row(b) - d.row(a), d2 = d.row(c) - d.row(a);
-    const Eigen::Vector3d& n = fold_reference_[f];
-    // Projected area along the step: q(t) = q0 + q1 t + q2 t^2 (unnormalized); first root in (0, 1].
-    const double q0 = e1.cross(e2).dot(n), q1 = (d1.cross(e2) + e1.cross(d2)).dot(n), q2 = d1.cross(d2).dot(n);
-    if (q0 <= 0) continue;
-    double root = 2.0;
-    if (std::abs(q2) < 1e-300) {
-      if (q1 < 0) root = -q0 / q1;
-    } else {
-      const double disc = q1 * q1 - 4 * q2 * q0;
-      if (disc >= 0) {
-        const double sq = std::sqrt(disc);
-        // Numerically stable roots of q2 t^2 + q1 t + q0.
-        const double t1 = (-q1 - std::copysign(sq, q1)) / (2 * q2);
-        const double t2 = t1 != 0 ? q0 / (q2 * t1) : 2.0;
-        for (double t : {t1, t2})
-          if (t > 0 && t < root) root = t;
-      }
-    }
-    if (root <= 1.0) step = std::min(step, 0.8 * root);
-  }
+  for (const auto& term : terms_) step = std::min(step, term->MaxSafeStep(x, d));
   return step;
 }
 
@@ -423,10 +394,11 @@ std::vector<GarmentSystem::TermTime> GarmentSystem::term_times() const {
 }
 
 void GarmentSystem::StoreElement(const Group& group, int e, const ElementSum& sum, EvaluationRecord* r) const {
-  for (size_t i = 0; i < group.terms.size(); ++i) r->energy_J[group.terms[i]][e] = sum.energy_J[i];
-  if (group.stencil == Stencil::kVertex && contact_ && r->phi.size() > 0) {
-    r->phi[e] = contact_->last_phi(e);
-    r->phi_grad.row(e) = contact_->last_phi_grad(e).transpose();
+  for (size_t i = 0; i < group.terms.size(); ++i) {
+    const int t = group.terms[i];
+    r->energy_J[t][e] = sum.energy_J[i];
+    const int w = record_width_[t];
+    if (w > 0 && !r->recorded[t].empty()) terms_[t]->RecordElement(e, &r->recorded[t][static_cast<size_t>(w) * e]);
   }
 }
 
@@ -447,11 +419,12 @@ void GarmentSystem::Scatter(const Group& group, int e, const ElementSum& sum, Ei
 
 void GarmentSystem::PrepareRecord(EvaluationRecord* r, bool want_grad) const {
   r->energy_J.resize(terms_.size());
+  r->recorded.resize(terms_.size());
   for (const Group& g : groups_)
-    for (int t : g.terms) r->energy_J[t].assign(g.count, 0.0);
-  const int nv = num_vertices();
-  r->phi.resize(contact_ && want_grad ? nv : 0);
-  r->phi_grad.resize(contact_ && want_grad ? nv : 0, 3);
+    for (int t : g.terms) {
+      r->energy_J[t].assign(g.count, 0.0);
+      r->recorded[t].assign(want_grad ? static_cast<size_t>(record_width_[t]) * g.count : 0, 0.0);
+    }
 }
 
 double GarmentSystem::SumEnergies(const EvaluationRecord& r, EnergyBreakdown* breakdown) const {
@@ -462,10 +435,9 @@ double GarmentSystem::SumEnergies(const EvaluationRecord& r, EnergyBreakdown* br
     for (double e : r.energy_J[t]) term_J[t] += e;
   const std::vector<TermRegistration>& registry = EnergyTermRegistry();
   EnergyBreakdown b;
-  b.terms.resize(registry.size());
   for (size_t i = 0; i < registry.size(); ++i) {
     const int t = registered_term_[i];
-    b.terms[registry[i].breakdown_order] = {registry[i].name, t >= 0 ? term_J[t] : 0.0};
+    b.terms.push_back({registry[i].name, t >= 0 ? term_J[t] : 0.0});
   }
   const double total = b.total_J();
   if (breakdown) *breakdown = std::move(b);
@@ -524,7 +496,7 @@ double GarmentSystem::Evaluate(const Positions& x, Eigen::VectorXd* gradient, Ei
   if (record) {
     r.x = x;
     r.design = model_.design;
-    r.friction_version = friction_version_;
+    r.lag_version = lag_version_;
   }
   return SumEnergies(r, breakdown);
 }
@@ -535,13 +507,15 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
                                    EnergyBreakdown* breakdown, EvaluationRecord* record) {
   const int nv = num_vertices(), nf = num_faces();
   const bool want_grad = gradient != nullptr, want_hess = hessian != nullptr;
-  bool usable = base.friction_version == friction_version_ && base.x.rows() == nv && base.energy_J.size() == terms_.size() &&
-                base.design.size() == model_.design.size() &&
-                (!want_grad || (base_gradient && base_gradient->size() == 3 * nv && (!contact_ || base.phi.size() == nv))) &&
+  bool usable = base.lag_version == lag_version_ && base.x.rows() == nv && base.energy_J.size() == terms_.size() &&
+                base.recorded.size() == terms_.size() && base.design.size() == model_.design.size() &&
+                (!want_grad || (base_gradient && base_gradient->size() == 3 * nv)) &&
                 (!want_hess || (want_grad && base_hessian && base_hessian->nonZeros() == pattern_.nonZeros() &&
                                 hessian->nonZeros() == pattern_.nonZeros()));
   for (const Group& g : groups_)
-    for (int t : g.terms) usable = usable && static_cast<int>(base.energy_J[t].size()) == g.count;
+    for (int t : g.terms)
+      usable = usable && static_cast<int>(base.energy_J[t].size()) == g.count &&
+               (!want_grad || base.recorded[t].size() == static_cast<size_t>(record_width_[t]) * g.count);
   std::vector<int> moved, redesigned;
   if (usable) {
     for (int v = 0; v < nv; ++v)
@@ -563,14 +537,11 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
   EvaluationRecord& r = record ? *record : scratch_;
   if (&r != &base) {
     r.energy_J = base.energy_J;
-    if (want_grad) {
-      r.phi = base.phi;
-      r.phi_grad = base.phi_grad;
-    }
+    if (want_grad) r.recorded = base.recorded;
   }
   if (!want_grad) {
-    r.phi.resize(0);
-    r.phi_grad.resize(0, 3);
+    r.recorded.resize(terms_.size());
+    for (std::vector<double>& d : r.recorded) d.clear();
   }
   // The elements whose terms change: those on a face of another design, and those around a moved vertex.
   std::vector<std::vector<int>> changed_elements(groups_.size());
@@ -668,23 +639,17 @@ double GarmentSystem::EvaluateFrom(const EvaluationRecord& base, const Eigen::Ve
   if (record) {
     r.x = x;
     r.design = model_.design;
-    r.friction_version = friction_version_;
+    r.lag_version = lag_version_;
   }
   return SumEnergies(r, breakdown);
 }
 
 void GarmentSystem::FaceDensities(const Positions& x, Eigen::VectorXd* density, std::vector<MembraneRegime>* regime) const {
-  const int nf = num_faces();
-  if (density) density->resize(nf);
-  if (regime) regime->resize(nf);
-  for (int f = 0; f < nf; ++f) {
-    const int m = model_.design[f];
-    const ElementEvaluation ev = EvaluateMembraneElement(elements_[f], x.row(model_.faces(f, 0)), x.row(model_.faces(f, 1)),
-                                                         x.row(model_.faces(f, 2)), lame_[m], thickness_[m],
-                                                         model_.effects.relaxation, nullptr, nullptr, true);
-    if (density) (*density)[f] = ev.density_Pa;
-    if (regime) (*regime)[f] = ev.regime;
-  }
+  Eigen::VectorXd d;
+  for (const auto& term : terms_)
+    if (term->FaceDensities(x, density ? density : &d, regime)) return;
+  if (density) density->setZero(num_faces());
+  if (regime) regime->clear();
 }
 
 Eigen::VectorXd GarmentSystem::VertexPhi(const Positions& x, Positions* grad) {
@@ -703,41 +668,11 @@ Eigen::VectorXd GarmentSystem::VertexPhi(const Positions& x, Positions* grad) {
   return phi;
 }
 
-int GarmentSystem::ProjectCrossingsOntoBody(const Eigen::VectorXd& phi_from, const Positions& grad_from, const Positions& x_from, Positions* trial) {
-  if (model_.effects.contact != ContactModel::kUnilateral || !model_.body) return 0;
-  if (caches_.empty()) caches_.resize(num_vertices());
+int GarmentSystem::ProjectTrial(const EvaluationRecord& from, Positions* trial) {
+  if (from.recorded.size() != terms_.size()) return 0;
   int moved = 0;
   const auto t0 = Clock::now();
-#pragma omp parallel for schedule(static) reduction(+ : moved)
-  for (int v = 0; v < num_vertices(); ++v) {
-    if (std::isnan(phi_from[v])) continue;
-    if (free_index_[3 * v] < 0 || free_index_[3 * v + 1] < 0 || free_index_[3 * v + 2] < 0) continue;
-    double target = -kProjectionDepth_m, tol = 0.5 * kProjectionDepth_m;
-    bool both_ways = false;
-    if (phi_from[v] < 0) {
-      // In contact: the step is linear, the skin curved. Sliding along it leaves the vertex micrometres
-      // deeper (concave skin) or shallower (convex) than the model predicted, and the penalty then answers
-      // with a force no Hessian foresaw: the next step undoes it, and the next. Follow the skin instead.
-      const double lin = phi_from[v] + grad_from.row(v).dot(trial->row(v) - x_from.row(v));
-      if (lin < target) {
-        target = lin;
-        tol = 1e-3 * -lin + 0.5 * kProjectionDepth_m;
-        both_ways = true;
-      }
-    }
-    Eigen::Vector3d y = trial->row(v).transpose();
-    FieldSample s = model_.body->Evaluate(y, &caches_[v], true, false);
-    if (!s.supported || std::abs(s.phi_m - target) <= tol || (s.phi_m > target && !both_ways)) continue;
-    for (int k = 0; k < 4 && s.supported && std::abs(s.phi_m - target) > tol; ++k) {
-      const double g2 = s.grad.squaredNorm();
-      if (!(g2 > 1e-12)) break;
-      y -= ((s.phi_m - target) / g2) * s.grad;
-      s = model_.body->Evaluate(y, &caches_[v], true, false);
-    }
-    if (!y.allFinite()) continue;
-    trial->row(v) = y.transpose();
-    ++moved;
-  }
+  for (size_t t = 0; t < terms_.size(); ++t) moved += terms_[t]->ProjectTrial(from.recorded[t], from.x, free_index_, trial);
   body_field_query_s_ += SecondsSince(t0);
   return moved;
 }
@@ -748,20 +683,11 @@ Eigen::Vector3d GarmentSystem::ClampReaction(int clamp, const Eigen::VectorXd& g
   return r;
 }
 
-void GarmentSystem::LagFriction(const Positions& x) {
-  if (!(model_.effects.friction > 0) || model_.effects.contact == ContactModel::kNone) return;
-  const int nv = num_vertices();
-  const Positions& anchor = model_.friction_anchor;
-  std::vector<FrictionVertex> lagged(nv);
-  for (int v = 0; v < nv; ++v) {
-    Eigen::Vector3d g;
-    EvaluateContactVertex(*model_.body, x.row(v).transpose(), &caches_[v], model_.effects.contact, model_.contact_stiffness_N_per_m, &g,
-                          nullptr, false);
-    // The penalty's force is along the field gradient, the body's normal there.
-    lagged[v] = ::kgd::LagFriction(anchor.row(v).transpose(), g, g.norm(), model_.effects.friction);
-  }
-  friction_ = std::move(lagged);
-  ++friction_version_;
+void GarmentSystem::Lag(const Positions& x) {
+  if (!lagged_) return;
+  for (const auto& term : terms_)
+    if (term->lagged()) term->Lag(x);
+  ++lag_version_;
 }
 
 }  // namespace kgd

@@ -1,10 +1,12 @@
 // The garment-on-body system: the total potential energy of a garment, a sum of energy terms
-// (membrane, contact with the body field, attachments, fold barrier, friction, ...: the registry in
-// energy_terms.h), over the free degrees of freedom left by the clamps, with its gradient and a
+// (membrane, contact with the body field, attachments, fold barrier, friction, ...: the term list in
+// term_list.h), over the free degrees of freedom left by the clamps, with its gradient and a
 // projected (positive semi-definite) Hessian assembled into a fixed sparse pattern.
 //
 // Effects are opt-in: only the terms the model's effects switch on are made and evaluated. A model
-// without contact needs no body field and none is built. Every term is handled alike: elements of
+// without contact needs no body field and none is built. The system knows no particular term (it
+// includes no term's header): every term is handled alike, through energy_term.h's interface and its
+// optional hooks: elements of
 // its stencil (faces, hinges, vertices) are coloured so that no two of a colour share a vertex and
 // evaluated in parallel colour by colour, their local gradients and Hessians scattered in a fixed
 // order, so results are bit-identical whatever the thread count.
@@ -23,67 +25,16 @@
 #include "core/body/body_field.h"
 #include "core/mesh/topology.h"
 #include "core/mesh/trimesh.h"
-#include "core/sim/attachment.h"
-#include "core/sim/contact.h"
 #include "core/sim/energy_terms.h"
-#include "core/sim/fold_barrier.h"
-#include "core/sim/friction.h"
-#include "core/sim/membrane.h"
+#include "core/sim/garment_model.h"
 #include "core/util/status.h"
 
 namespace kgd {
 
-// A set of vertices with prescribed positions, e.g. the jaws of a pull tester. Only the coordinates
-// marked in `axes` are prescribed: target = initial position + displacement.
-struct Clamp {
-  std::string name;
-  std::vector<int> vertices;
-  std::array<bool, 3> axes = {true, true, true};
-  Eigen::Vector3d displacement_m = Eigen::Vector3d::Zero();
-};
-
-struct Effects {
-  bool membrane = true;
-  Relaxation relaxation = Relaxation::kExact;
-  // Refuse folds of the garment (see fold_barrier.h): an extension of the paper's model.
-  bool fold_barrier = true;
-  ContactModel contact = ContactModel::kNone;
-  // Coulomb coefficient of garment-skin friction (see friction.h); 0: frictionless, as in the paper.
-  // Needs contact.
-  double friction = 0;
-  bool attachments = false;
-  bool clamps = false;
-  // Discrete-shell bending of the cloth (see bending.h): an extension, off as in the paper.
-  bool bending = false;
-};
-
-// Design values per face.
-enum : uint8_t { kCloth = 0, kReinforced = 1 };
-
-struct GarmentModel {
-  Faces faces;
-  Positions rest;                  // rest positions; each triangle's rest shape is taken in its own plane
-  std::vector<uint8_t> design;     // per face: kCloth or kReinforced
-  Material cloth = ClothMaterial();
-  Material reinforced = ReinforcedMaterial();
-  LameConversion lame = LameConversion::kSolid3D;
-  Effects effects;
-  std::shared_ptr<const BodyField> body;  // required when effects.contact != kNone
-  double contact_stiffness_N_per_m = kDefaultContactStiffness;
-  Attachments attachments;                // used when effects.attachments
-  std::vector<Clamp> clamps;              // used when effects.clamps
-  // Orientation the fold barrier measures folds against (the garment on the body); empty: the
-  // positions the system is constructed with.
-  Positions fold_reference;
-  // Friction: where each vertex was put on the body (anchors); empty: the construction positions.
-  Positions friction_anchor;
-  double friction_slip_m = kDefaultFrictionSlip;
-};
-
 // Checks sizes, indices, materials and that the effects have what they need. Names the offending item.
 Status ValidateModel(const GarmentModel& model);
 
-// The energy of each registered term (J), in the registry's breakdown order, 0 for a term that is off.
+// The energy of each registered term (J), in the term list's order, 0 for a term that is off.
 struct EnergyBreakdown {
   struct Term {
     const char* name;
@@ -92,7 +43,7 @@ struct EnergyBreakdown {
   std::vector<Term> terms;
   // The energy of the term named `name` ("membrane", ...); 0 when there is none.
   double operator[](std::string_view name) const;
-  // The sum in breakdown order.
+  // The sum in the term list's order.
   double total_J() const;
 };
 
@@ -102,11 +53,11 @@ struct EvaluationRecord {
   Positions x;
   // Per term of the system (GarmentSystem::terms() order), per element of its stencil.
   std::vector<std::vector<double>> energy_J;
-  // Contact: Phi (NaN where unsupported) and grad Phi per vertex; empty when no gradient was evaluated.
-  Eigen::VectorXd phi;
-  Positions phi_grad;
+  // Per term of the system, what it records per element (EnergyTerm::RecordWidth values each, e.g.
+  // the contact term's Phi and grad Phi per vertex); empty when no gradient was evaluated.
+  std::vector<std::vector<double>> recorded;
   std::vector<uint8_t> design;  // the system's design it was made with (per face)
-  int friction_version = -1;     // the system's lagged friction it was made with
+  int lag_version = -1;          // the system's lagged data it was made with
 };
 
 class GarmentSystem {
@@ -121,7 +72,8 @@ class GarmentSystem {
   int num_free_dofs() const { return num_free_; }
   // For each of the 3n coordinates, its index among the free ones, or -1 if clamped.
   const std::vector<int>& free_index() const { return free_index_; }
-  const std::vector<MembraneElement>& elements() const { return elements_; }
+  // Per face: its rest area (m^2).
+  const std::vector<double>& rest_areas_m2() const { return rest_area_; }
   // The terms the model switched on, in evaluation order: their registry names, and the index of one
   // by name (-1 when off).
   const std::vector<const char*>& term_names() const { return term_names_; }
@@ -152,10 +104,10 @@ class GarmentSystem {
   // jaws moved would leave the interior slack, with no stiffness to guide Newton.
   void ApplyClampsSmoothly(Positions* x) const;
 
-  // With the fold barrier: the largest step length in [0, 1] along `direction` (all coordinates) that
-  // goes at most 80 % of the way to folding any triangle over (its projected area reaching zero), as
-  // interior-point methods step towards a barrier. 1 without the fold barrier.
-  double MaxFoldSafeStep(const Positions& x, const Positions& direction) const;
+  // The largest step length in [0, 1] along `direction` (all coordinates) every term allows
+  // (EnergyTerm::MaxSafeStep; the fold barrier's goes at most 80 % of the way to folding a triangle
+  // over, as interior-point methods step towards a barrier). 1 when no term sets a bound.
+  double MaxSafeStep(const Positions& x, const Positions& direction) const;
 
   // Total energy at x (+infinity where undefined) and, on request, the gradient over all 3n coordinates
   // and the projected Hessian over the free ones. `hessian` must be a copy of hessian_pattern().
@@ -186,33 +138,25 @@ class GarmentSystem {
   // Upper triangle (free dofs, column-major) of the Hessian's sparsity; values are zero.
   const Eigen::SparseMatrix<double>& hessian_pattern() const { return pattern_; }
 
-  // Per-face energy density W (Pa) and regime at x.
+  // Per-face energy density W (Pa) and regime at x, from the first term that has them
+  // (EnergyTerm::FaceDensities: the membrane); zeros when none has.
   void FaceDensities(const Positions& x, Eigen::VectorXd* density_Pa, std::vector<MembraneRegime>* regime) const;
 
-  // With friction: takes the normal forces and tangent planes of the contact at x as the lagged data of
-  // the friction term (held until the next call). Before any call the friction term is zero.
-  void LagFriction(const Positions& x);
+  // True when a term is lagged (EnergyTerm::lagged: friction): Lag(x) then has something to take.
+  bool lagged() const { return lagged_; }
+  // Every lagged term takes its lagged data at x (friction: the normal forces and tangent planes of
+  // the contact there), held until the next call. Before any call the friction term is zero.
+  void Lag(const Positions& x);
 
   // Phi at each vertex (m); NaN where the field has no support; with `grad`, the field's gradient there
   // (a zero row where unsupported). Requires contact.
   Eigen::VectorXd VertexPhi(const Positions& x, Positions* grad = nullptr);
 
-  // Unilateral contact only (otherwise returns 0 and leaves `trial` alone). Corrects a line-search trial
-  // `trial` of a step from `x_from` (phi_from and grad_from from VertexPhi there, or from the record of an
-  // evaluation there with a gradient) where the Newton model's linear view of the skin fails, moving
-  // fully free vertices along the field gradient (a few Newton iterations on Phi):
-  //  - a vertex off the body at the start (phi_from >= 0) has no contact stiffness in the Hessian, so the
-  //    step may carry it deep into the body and the penalty then cuts the whole step to a sliver (a wasted
-  //    factorization): if it ends inside, it goes back to just inside the surface
-  //    (Phi = -kProjectionDepth), where the next Hessian sees its contact stiffness;
-  //  - a vertex in contact (phi_from < 0) that slides along the curved skin ends micrometres deeper
-  //    (concave skin) or shallower (convex) than the linear model's phi_from + grad_from . step: it goes
-  //    to that depth, from either side (if the model predicts lift-off, it is treated as a crossing).
-  //    Without this, cloth sliding on a limb spends most Newton iterations of a BESO re-solve undoing
-  //    micrometre penetrations and lift-offs.
-  // Neither changes an equilibrium, only the path to it. Returns the number of vertices moved.
-  static constexpr double kProjectionDepth_m = 1e-10;
-  int ProjectCrossingsOntoBody(const Eigen::VectorXd& phi_from, const Positions& grad_from, const Positions& x_from, Positions* trial);
+  // Corrects a line-search trial `trial` of a step from `from.x` by every term's ProjectTrial, given
+  // the record of an evaluation at from.x with a gradient (unilateral contact moves vertices the step
+  // carries across the skin back onto it: contact.h). Neither changes an equilibrium, only the path to
+  // it. Returns the number of vertices moved; 0 when the record has no gradient.
+  int ProjectTrial(const EvaluationRecord& from, Positions* trial);
 
   // Force the clamp exerts on the garment at x (N): the sum of dE/dx over its vertices.
   Eigen::Vector3d ClampReaction(int clamp, const Eigen::VectorXd& gradient) const;
@@ -226,21 +170,18 @@ class GarmentSystem {
 
  private:
   GarmentModel model_;
-  std::vector<MembraneElement> elements_;
-  std::vector<Eigen::Vector3d> fold_reference_;  // per face: unit normal at construction (fold barrier)
-  Lame lame_[2];
-  double thickness_[2];
+  std::vector<double> rest_area_;
   std::vector<int> free_index_;
   int num_free_ = 0;
   Positions clamp_target_;
   std::vector<NeighborCache> caches_;
-  std::vector<FrictionVertex> friction_;  // per vertex, lagged (empty: no friction yet)
   Hinges hinges_;
   // The terms switched on, in evaluation order, with their registry names and breakdown places.
   std::vector<std::unique_ptr<EnergyTerm>> terms_;
   std::vector<const char*> term_names_;
   std::vector<int> registered_term_;  // per registry entry: its index in terms_, or -1 when off
-  ContactTerm* contact_ = nullptr;  // among terms_: its Phi samples go into records
+  std::vector<int> record_width_;      // per term of terms_: EnergyTerm::RecordWidth
+  bool lagged_ = false;
   // term_times(): per term of terms_, seconds and element evaluations; per thread, the sampled time of
   // each term (ns) in the loop being timed (rows padded apart so threads do not share cache lines).
   std::vector<double> term_seconds_;
@@ -274,8 +215,8 @@ class GarmentSystem {
   Eigen::SparseMatrix<double> pattern_;
   EvaluationRecord scratch_;  // the per-term energies of an evaluation the caller keeps no record of
   double force_scale_ = 1, mean_edge_ = 0, stiffness_scale_ = 1;
-  // Changes with the lagged friction: records made before cannot serve.
-  int friction_version_ = 0;
+  // Changes with the lagged data (Lag): records made before cannot serve.
+  int lag_version_ = 0;
 
   // One element's terms at x and, on request, their summed gradient and Hessian; the same code serves
   // Evaluate and EvaluateFrom so that both sum the same numbers.

@@ -14,7 +14,11 @@
 
 #include "core/scene/scene.h"
 #include "core/scene/builtin_scenes.h"
+#include "core/sim/attachment.h"
+#include "core/sim/contact.h"
 #include "core/sim/finite_difference_check.h"
+#include "core/sim/fold_barrier.h"
+#include "core/sim/membrane.h"
 #include "core/sim/simulator.h"
 
 namespace kgd {
@@ -163,7 +167,7 @@ TEST(GarmentSystem, EachTermsGradientMatchesFiniteDifferencesOnEveryCoordinate) 
     Positions pressed;
     if (contact != ContactModel::kNone) {
       pressed = s.initial - 1e-3 * OutwardNormals(sys, s);
-      sys.LagFriction(pressed);
+      sys.Lag(pressed);
     }
     Eigen::VectorXd g_all;
     EnergyBreakdown e;
@@ -187,7 +191,7 @@ TEST(GarmentSystem, EachTermsGradientMatchesFiniteDifferencesOnEveryCoordinate) 
       if (term == "friction") {
         without = Only(all, only, s.initial);
         with = Only(all, [&] { Effects f = only; f.friction = all.effects.friction; return f; }(), s.initial);
-        with->LagFriction(pressed);
+        with->Lag(pressed);
       }
       ASSERT_GE(with->term_index(name), 0);
       const testing::TermFunction part = TermPart(*with, without.get());
@@ -231,7 +235,7 @@ TEST(GarmentSystem, AssembledHessiansOfFrictionBendingAndFoldBarrierMatchFiniteD
     contact.contact = friction.contact = ContactModel::kUnilateral;
     friction.friction = 0.4;
     std::unique_ptr<GarmentSystem> with = Only(m, friction, s.initial), without = Only(m, contact, s.initial);
-    with->LagFriction(s.initial - 1e-3 * OutwardNormals(*with, s));
+    with->Lag(s.initial - 1e-3 * OutwardNormals(*with, s));
     Positions x = s.initial;
     for (Eigen::Index v = 0; v < x.rows(); ++v)
       for (int k = 0; k < 3; ++k) x(v, k) += 1e-3 * noise(rng);
@@ -298,7 +302,9 @@ TEST(GarmentSystem, SparseAssemblyMatchesDenseAssembly) {
   for (int f = 0; f < sys.num_faces(); ++f) {
     const Material& mat = m.design[f] ? m.reinforced : m.cloth;
     Matrix9d He;
-    EvaluateMembraneElement(sys.elements()[f], fx.x.row(m.faces(f, 0)), fx.x.row(m.faces(f, 1)), fx.x.row(m.faces(f, 2)),
+    const MembraneElement el = MakeMembraneElement(m.rest.row(m.faces(f, 0)), m.rest.row(m.faces(f, 1)), m.rest.row(m.faces(f, 2)));
+    EXPECT_EQ(el.rest_area_m2, sys.rest_areas_m2()[f]);
+    EvaluateMembraneElement(el, fx.x.row(m.faces(f, 0)), fx.x.row(m.faces(f, 1)), fx.x.row(m.faces(f, 2)),
                             LameParameters(mat, m.lame), mat.thickness_m, m.effects.relaxation, nullptr, &He, true);
     if (attached[f])
       for (int a = 0; a < 3; ++a)
@@ -344,13 +350,13 @@ TEST(GarmentSystem, FrictionGradientMatchesFiniteDifferencesAndNeedsContactForce
   EnergyBreakdown before;
   sys.Evaluate(x, nullptr, nullptr, &before);
   EXPECT_EQ(before["friction"], 0.0) << "no friction before its data are lagged";
-  sys.LagFriction(pressed);
+  sys.Lag(pressed);
   Eigen::VectorXd g;
   EnergyBreakdown e;
   sys.Evaluate(x, &g, nullptr, &e);
   EXPECT_GT(e["friction"], 0);
   // Lagged where the garment is off the body: no normal force, no friction.
-  sys.LagFriction(s.initial.rowwise() + Eigen::RowVector3d(1.0, 0, 0));
+  sys.Lag(s.initial.rowwise() + Eigen::RowVector3d(1.0, 0, 0));
   sys.Evaluate(x, nullptr, nullptr, &e);
   EXPECT_EQ(e["friction"], 0.0);
   // Friction without contact is refused.
@@ -375,8 +381,17 @@ std::unique_ptr<GarmentSystem> PinnedUnilateralSleeve(SceneSpec* s) {
 // The line search's projection: a vertex that a trial step carries from off the body into it goes back
 // to just inside the surface; vertices in contact that the step leaves at the depth the linear model
 // predicts, clamped vertices, and the other contact models are left alone.
-// The record of an evaluation with a gradient holds Phi and grad Phi per vertex (the line search's
-// contact projection starts from them): they must be what sampling the field afresh gives.
+// The record of an evaluation at x with a gradient (it holds what the terms' ProjectTrial needs).
+EvaluationRecord RecordAt(GarmentSystem& sys, const Positions& x) {
+  Eigen::VectorXd g;
+  EvaluationRecord r;
+  sys.Evaluate(x, &g, nullptr, nullptr, &r);
+  return r;
+}
+
+// The record of an evaluation with a gradient holds the contact term's Phi and grad Phi per vertex
+// (the line search's contact projection starts from them): they must be what sampling the field
+// afresh gives.
 TEST(GarmentSystem, RecordedPhiMatchesFreshSampling) {
   Fixture a = MakeSystem(ContactModel::kUnilateral, Relaxation::kExact);
   Fixture b = MakeSystem(ContactModel::kUnilateral, Relaxation::kExact);
@@ -385,29 +400,34 @@ TEST(GarmentSystem, RecordedPhiMatchesFreshSampling) {
   a.sys->Evaluate(a.x, &g, nullptr, nullptr, &record);
   Positions grad_b;
   const Eigen::VectorXd phi_b = b.sys->VertexPhi(b.x, &grad_b);
-  ASSERT_EQ(record.phi.size(), phi_b.size());
+  const int contact = a.sys->term_index("contact");
+  ASSERT_GE(contact, 0);
+  const std::vector<double>& rec = record.recorded[contact];
+  ASSERT_EQ(rec.size(), 4 * static_cast<size_t>(phi_b.size()));
   int supported = 0;
   for (Eigen::Index v = 0; v < phi_b.size(); ++v) {
-    ASSERT_EQ(std::isnan(record.phi[v]), std::isnan(phi_b[v])) << "vertex " << v;
+    ASSERT_EQ(std::isnan(rec[4 * v]), std::isnan(phi_b[v])) << "vertex " << v;
     if (std::isnan(phi_b[v])) continue;
     ++supported;
-    EXPECT_EQ(record.phi[v], phi_b[v]) << "vertex " << v;
-    EXPECT_EQ(record.phi_grad.row(v), grad_b.row(v)) << "vertex " << v;
+    EXPECT_EQ(rec[4 * v], phi_b[v]) << "vertex " << v;
+    EXPECT_EQ(Eigen::RowVector3d(rec[4 * v + 1], rec[4 * v + 2], rec[4 * v + 3]), grad_b.row(v)) << "vertex " << v;
   }
   EXPECT_GT(supported, phi_b.size() / 2);
-  // Without a gradient no Phi is recorded.
+  // Without a gradient nothing is recorded.
   a.sys->Evaluate(a.x, nullptr, nullptr, nullptr, &record);
-  EXPECT_EQ(record.phi.size(), 0);
+  EXPECT_TRUE(record.recorded[contact].empty());
 }
 
-// Exact equality of two evaluations' results, NaN-aware for Phi.
+// Exact equality of two evaluations' results, NaN-aware for what the terms record.
 void ExpectSameEvaluation(const EvaluationRecord& a, const EvaluationRecord& b) {
   EXPECT_EQ(a.x, b.x);
   EXPECT_EQ(a.energy_J, b.energy_J);
-  ASSERT_EQ(a.phi.size(), b.phi.size());
-  for (Eigen::Index v = 0; v < a.phi.size(); ++v) {
-    EXPECT_TRUE(a.phi[v] == b.phi[v] || (std::isnan(a.phi[v]) && std::isnan(b.phi[v]))) << "vertex " << v;
-    EXPECT_EQ(a.phi_grad.row(v), b.phi_grad.row(v)) << "vertex " << v;
+  ASSERT_EQ(a.recorded.size(), b.recorded.size());
+  for (size_t t = 0; t < a.recorded.size(); ++t) {
+    ASSERT_EQ(a.recorded[t].size(), b.recorded[t].size()) << "term " << t;
+    for (size_t i = 0; i < a.recorded[t].size(); ++i)
+      EXPECT_TRUE(a.recorded[t][i] == b.recorded[t][i] || (std::isnan(a.recorded[t][i]) && std::isnan(b.recorded[t][i])))
+          << "term " << t << ", value " << i;
   }
 }
 
@@ -434,7 +454,7 @@ TEST(GarmentSystem, EvaluateFromMatchesAFullEvaluationBitForBit) {
   ASSERT_TRUE(model.ok()) << model.message();
   ASSERT_TRUE(model.value().effects.attachments && !model.value().attachments.faces.empty());
   GarmentSystem sys(std::move(model).value(), s.initial);
-  sys.LagFriction(s.initial - 1e-3 * OutwardNormals(sys, s));
+  sys.Lag(s.initial - 1e-3 * OutwardNormals(sys, s));
   std::mt19937 rng(11);
   std::normal_distribution<double> n(0, 1e-3);
   Positions x = s.initial;
@@ -566,14 +586,14 @@ TEST(GarmentSystem, EvaluateFromMatchesAFullEvaluationBitForBit) {
     SCOPED_TRACE("the lagged friction changed under the record");
     EvaluationRecord r;
     sys.Evaluate(x, &g0, &H0, nullptr, &r);
-    sys.LagFriction(s.initial - 2e-3 * OutwardNormals(sys, s));
+    sys.Lag(s.initial - 2e-3 * OutwardNormals(sys, s));
     Eigen::VectorXd g, g_ref;
     EXPECT_EQ(sys.EvaluateFrom(r, &g0, nullptr, y, &g, nullptr), sys.Evaluate(y, &g_ref, nullptr));
     EXPECT_EQ(g, g_ref);
   }
 }
 
-TEST(GarmentSystem, ProjectCrossingsOntoBodyMovesOnlyTheVerticesThatCrossed) {
+TEST(GarmentSystem, ProjectTrialMovesOnlyTheVerticesThatCrossed) {
   SceneSpec s;
   std::unique_ptr<GarmentSystem> system = PinnedUnilateralSleeve(&s);
   ASSERT_TRUE(system);
@@ -588,16 +608,16 @@ TEST(GarmentSystem, ProjectCrossingsOntoBodyMovesOnlyTheVerticesThatCrossed) {
   const Eigen::VectorXd phi_from = sys.VertexPhi(from, &grad_from);
   const Eigen::VectorXd phi_end = sys.VertexPhi(step_end);
   Positions trial = step_end;
-  const int moved = sys.ProjectCrossingsOntoBody(phi_from, grad_from, from, &trial);
+  const int moved = sys.ProjectTrial(RecordAt(sys, from), &trial);
   const Eigen::VectorXd phi = sys.VertexPhi(trial);
   int expected = 0;
   for (Eigen::Index v = 0; v < trial.rows(); ++v) {
     const bool clamped = v <= 1;
-    const bool crossed = phi_from[v] >= 0 && phi_end[v] < -2 * GarmentSystem::kProjectionDepth_m;
+    const bool crossed = phi_from[v] >= 0 && phi_end[v] < -2 * kContactProjectionDepth_m;
     if (crossed && !clamped) {
       ++expected;
       EXPECT_LT(phi[v], 0.0) << "vertex " << v;
-      EXPECT_GT(phi[v], -2 * GarmentSystem::kProjectionDepth_m) << "vertex " << v;
+      EXPECT_GT(phi[v], -2 * kContactProjectionDepth_m) << "vertex " << v;
       // Moved along the field's normal, by about the depth it had crossed.
       EXPECT_NEAR((trial.row(v) - step_end.row(v)).norm(), -phi_end[v], 0.2 * -phi_end[v]) << "vertex " << v;
     } else {
@@ -613,14 +633,14 @@ TEST(GarmentSystem, ProjectCrossingsOntoBodyMovesOnlyTheVerticesThatCrossed) {
   ASSERT_TRUE(bmodel.ok());
   GarmentSystem bsys(std::move(bmodel).value(), b.initial);
   Positions btrial = step_end;
-  EXPECT_EQ(bsys.ProjectCrossingsOntoBody(phi_from, grad_from, from, &btrial), 0);
+  EXPECT_EQ(bsys.ProjectTrial(RecordAt(bsys, from), &btrial), 0);
   EXPECT_EQ(btrial, step_end);
 }
 
 // A vertex in contact that a step slides along the curved limb (here: 3 mm in the tangent plane, so the
 // linear model predicts no change of depth) ends shallower or deeper; the projection puts it back at its
 // depth, moving it along the normal by just the difference.
-TEST(GarmentSystem, ProjectCrossingsOntoBodyKeepsSlidingContactAtThePredictedDepth) {
+TEST(GarmentSystem, ProjectTrialKeepsSlidingContactAtThePredictedDepth) {
   SceneSpec s;
   std::unique_ptr<GarmentSystem> system = PinnedUnilateralSleeve(&s);
   ASSERT_TRUE(system);
@@ -635,7 +655,7 @@ TEST(GarmentSystem, ProjectCrossingsOntoBodyKeepsSlidingContactAtThePredictedDep
   }
   const Eigen::VectorXd phi_end = sys.VertexPhi(step_end);
   Positions trial = step_end;
-  const int moved = sys.ProjectCrossingsOntoBody(phi_from, grad_from, from, &trial);
+  const int moved = sys.ProjectTrial(RecordAt(sys, from), &trial);
   const Eigen::VectorXd phi = sys.VertexPhi(trial);
   int off_prediction = 0, shallower = 0, deeper = 0;
   for (Eigen::Index v = 0; v < trial.rows(); ++v) {
@@ -645,7 +665,7 @@ TEST(GarmentSystem, ProjectCrossingsOntoBodyKeepsSlidingContactAtThePredictedDep
       EXPECT_EQ(trial.row(v), step_end.row(v)) << "clamped vertex " << v;
       continue;
     }
-    const double tol = 1e-3 * -phi_from[v] + 0.5 * GarmentSystem::kProjectionDepth_m;
+    const double tol = 1e-3 * -phi_from[v] + 0.5 * kContactProjectionDepth_m;
     EXPECT_NEAR(phi[v], phi_from[v], tol) << "vertex " << v;
     if (std::abs(miss) <= tol) {
       EXPECT_EQ(trial.row(v), step_end.row(v)) << "vertex " << v;
@@ -771,7 +791,7 @@ TEST(GarmentSystem, TermTimesCountEveryElementOfEveryEvaluation) {
   }
   EXPECT_LE(sum, wall);
   std::vector<std::string> names(sys.term_names().begin(), sys.term_names().end());
-  EXPECT_EQ(names, (std::vector<std::string>{"membrane", "fold_barrier", "attachment", "contact"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"membrane", "contact", "attachment", "fold_barrier"}));  // the term list's order
 }
 
 TEST(GarmentSystem, ValidateModelNamesTheProblem) {

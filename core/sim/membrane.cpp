@@ -6,7 +6,7 @@
 #include <limits>
 
 #include "core/sim/energy_terms.h"
-#include "core/sim/garment_system.h"
+#include "core/sim/garment_model.h"
 
 namespace kgd {
 namespace {
@@ -259,26 +259,54 @@ namespace {
 
 class MembraneFaceTerm final : public EnergyTerm {
  public:
-  explicit MembraneFaceTerm(const TermContext& context) : c_(context) {}
+  explicit MembraneFaceTerm(const TermContext& context) : model_(context.model) {
+    const GarmentModel& m = context.model;
+    elements_.resize(m.faces.rows());
+    for (Eigen::Index f = 0; f < m.faces.rows(); ++f)
+      elements_[f] = MakeMembraneElement(m.rest.row(m.faces(f, 0)), m.rest.row(m.faces(f, 1)), m.rest.row(m.faces(f, 2)));
+    const Material mats[2] = {m.cloth, m.reinforced};
+    for (int k = 0; k < 2; ++k) {
+      lame_[k] = LameParameters(mats[k], m.lame);
+      thickness_[k] = mats[k].thickness_m;
+    }
+  }
   Stencil stencil() const override { return Stencil::kFace; }
   ElementEnergy Evaluate(int f, const int* v, const Positions& x, double* g, double* H) override {
     const Eigen::Vector3d x0 = x.row(v[0]), x1 = x.row(v[1]), x2 = x.row(v[2]);
-    const int m = c_.model.design[f];
+    const int m = model_.design[f];
     Vector9d ge;
     Matrix9d He;
-    const ElementEvaluation ev = EvaluateMembraneElement(c_.elements[f], x0, x1, x2, c_.lame[m], c_.thickness_m[m],
-                                                         c_.model.effects.relaxation, g ? &ge : nullptr, H ? &He : nullptr, true);
+    const ElementEvaluation ev = EvaluateMembraneElement(elements_[f], x0, x1, x2, lame_[m], thickness_[m],
+                                                         model_.effects.relaxation, g ? &ge : nullptr, H ? &He : nullptr, true);
     if (!std::isfinite(ev.energy_J)) return {ev.energy_J, false};
     if (g) std::copy_n(ge.data(), ge.size(), g);
     if (H) std::copy_n(He.data(), He.size(), H);
     return {ev.energy_J, true};
   }
   std::string NonFiniteMeaning() const override {
-    return c_.model.effects.relaxation != Relaxation::kNone ? "" : ": inverted or degenerate, and the relaxation is off";
+    return model_.effects.relaxation != Relaxation::kNone ? "" : ": inverted or degenerate, and the relaxation is off";
+  }
+  // The garment's strain energy: W and the regime per face.
+  bool FaceDensities(const Positions& x, Eigen::VectorXd* density, std::vector<MembraneRegime>* regime) const override {
+    const int nf = static_cast<int>(model_.faces.rows());
+    if (density) density->resize(nf);
+    if (regime) regime->resize(nf);
+    for (int f = 0; f < nf; ++f) {
+      const int m = model_.design[f];
+      const ElementEvaluation ev = EvaluateMembraneElement(elements_[f], x.row(model_.faces(f, 0)), x.row(model_.faces(f, 1)),
+                                                           x.row(model_.faces(f, 2)), lame_[m], thickness_[m],
+                                                           model_.effects.relaxation, nullptr, nullptr, true);
+      if (density) (*density)[f] = ev.density_Pa;
+      if (regime) (*regime)[f] = ev.regime;
+    }
+    return true;
   }
 
  private:
-  TermContext c_;
+  const GarmentModel& model_;
+  std::vector<MembraneElement> elements_;
+  Lame lame_[2];
+  double thickness_[2];
 };
 
 }  // namespace

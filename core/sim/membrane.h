@@ -21,26 +21,11 @@
 
 #include <Eigen/Core>
 
+#include "core/sim/garment_model.h"
+
 namespace kgd {
 
-enum class LameConversion {
-  kSolid3D,      // lambda = E nu / ((1 + nu)(1 - 2 nu)): the authors' code; in-plane nu_eff = 0.4925 at nu = 0.33
-  kPlaneStress,  // lambda = E nu / (1 - nu^2): the thin-sheet reduction; in-plane nu_eff = nu
-};
-
-enum class Relaxation { kExact, kAuthors, kNone };
-
 enum class MembraneRegime { kTaut, kWrinkled, kSlack };
-
-struct Material {
-  double youngs_modulus_Pa = 0.5e6;
-  double poisson_ratio = 0.33;
-  double thickness_m = 0.27e-3;
-};
-
-// The paper's two materials (section "Material Parameters and 2D Validation").
-inline Material ClothMaterial() { return {0.5e6, 0.33, 0.27e-3}; }
-inline Material ReinforcedMaterial() { return {5.7e6, 0.33, 0.35e-3}; }
 
 struct Lame {
   double lambda_Pa = 0;

@@ -429,11 +429,11 @@ struct Simulator::NewtonSolve {
     bool accepted = false;
     AddFree(p, 1.0, free_index, *x, &trial);
     trial -= *x;
-    alpha = sys.MaxFoldSafeStep(*x, trial);
+    alpha = sys.MaxSafeStep(*x, trial);
     for (int ls = 0; ls < 40; ++ls, alpha *= 0.5) {
       AddFree(p, alpha, free_index, *x, &trial);
-      // nt.record is the evaluation at *x, with a gradient: it holds Phi and grad Phi there.
-      if (project_crossings) sys.ProjectCrossingsOntoBody(nt.record.phi, nt.record.phi_grad, *x, &trial);
+      // nt.record is the evaluation at *x, with a gradient: it holds what the terms' projections need.
+      if (project_crossings) sys.ProjectTrial(nt.record, &trial);
       // The first trial is nearly always taken (the fold-safe length, or a full step), and the next
       // iteration needs the gradient and Hessian there: evaluating them with the energy saves an
       // energy-only pass per iteration and costs one Hessian when the trial is refused.
@@ -598,11 +598,10 @@ void AccumulateSolve(SolveReport* total, const SolveReport& later) {
 }
 
 SolveReport SolveLagged(Simulator& sim, GarmentSystem& system, Positions* x, const SolverSettings& settings) {
-  const Effects& fx = system.model().effects;
-  if (!(fx.friction > 0) || fx.contact == ContactModel::kNone) return sim.Solve(x, settings);
+  if (!system.lagged()) return sim.Solve(x, settings);
   SolveReport total;
   for (int pass = 0; pass < 2; ++pass) {
-    system.LagFriction(*x);
+    system.Lag(*x);
     AccumulateSolve(&total, sim.Solve(x, settings));
     if (!total.at_equilibrium()) break;
   }

@@ -1,27 +1,25 @@
 // For tests that make one energy term of the garment system on its own (MakeAttachmentTerm,
-// MakeFrictionTerm, ...): the data a TermContext refers to, owned in one place. Set the model (and
-// the lagged friction data) first, then make the term from Context().
+// FrictionTerm, ...): the data a TermContext refers to, owned in one place. Set the model (and the
+// initial positions, where the term reads them) first, then make the term from Context().
 #pragma once
 
 #include <Eigen/Core>
 #include <vector>
 
+#include "core/body/body_field.h"
+#include "core/mesh/topology.h"
 #include "core/sim/energy_terms.h"
-#include "core/sim/garment_system.h"
+#include "core/sim/garment_model.h"
 
 namespace kgd::testing {
 
 struct TermContextStorage {
   GarmentModel model;
-  std::vector<MembraneElement> elements;
-  Lame lame[2];
-  double thickness[2] = {0, 0};
-  std::vector<Eigen::Vector3d> fold_reference;
+  Positions initial;
   std::vector<NeighborCache> caches;
-  std::vector<FrictionVertex> friction;
   Hinges hinges;
 
-  TermContext Context() { return TermContext{model, elements, lame, thickness, fold_reference, caches, friction, hinges}; }
+  TermContext Context() { return TermContext{model, initial, caches, hinges}; }
 };
 
 }  // namespace kgd::testing
