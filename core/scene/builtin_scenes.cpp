@@ -136,7 +136,8 @@ std::vector<BuiltinSceneInfo> BuiltinSceneInfos() {
   // holds this table to the scenes).
   const std::map<std::string, std::pair<int, double>> size = {
       {"arm_flexion", {13936, 0.04731}}, {"arm_extension", {13936, 0.04715}}, {"knee_flexion", {5200, 0.08252}},
-      {"knee_extension", {5200, 0.08269}}, {"slouch", {33368, 0.4959}}, {"crouch", {19716, 0.3083}}, {"lunge", {19716, 0.3083}}};
+      {"knee_extension", {5200, 0.08269}}, {"slouch", {33368, 0.4959}}, {"crouch", {19716, 0.3083}}, {"lunge", {19716, 0.3083}},
+      {"arm_brace", {13936, 0.04715}}, {"knee_brace", {5200, 0.08264}}, {"posture_shirt", {33368, 0.4959}}};
   std::vector<BuiltinSceneInfo> out;
   for (const PaperMotion& m : PaperMotions()) {
     const auto it = size.find(m.name);
