@@ -392,12 +392,9 @@ int RunBaselines(const std::string& path, int k, double angle_deg, bool angle_gi
                   s.reinforced_density_J_per_m2, best > 0 ? s.reinforced_energy_J / best : 0.0, s.solve.at_equilibrium() ? "" : "  (not converged)");
     }
     if (!out.empty()) {
-      Eigen::VectorXd d(r.design->size());
-      for (size_t f = 0; f < r.design->size(); ++f) d[f] = (*r.design)[f];
       const std::filesystem::path p(out);
       const std::string file = (p.parent_path() / (p.stem().string() + "_" + r.name + ".ply")).string();
-      if (Status st = WritePly(file, s.positions, h.garment.faces, {{"design", d, true}, {"energy_density_Pa", s.face_density_Pa, false}});
-          !st.ok())
+      if (Status st = WriteGarmentPly(file, s.positions, h.garment.faces, *r.design, s.face_density_Pa); !st.ok())
         return Fail("baselines", st.message());
     }
   }

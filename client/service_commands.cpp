@@ -384,10 +384,7 @@ int RunGet(const std::string& server, int64_t id, int iteration, const std::stri
       std::fprintf(stderr, "kgd get: the server sent a bad iteration: %s\n", it.message().c_str());
       return 1;
     }
-    Eigen::VectorXd design(it->design.size());
-    for (size_t f = 0; f < it->design.size(); ++f) design[f] = it->design[f];
-    if (Status w = WritePly(out, it->positions, h.garment.faces, {{"design", design, true}, {"energy_density_Pa", it->energy_density_Pa, false}});
-        !w.ok()) {
+    if (Status w = WriteGarmentPly(out, it->positions, h.garment.faces, it->design, it->energy_density_Pa); !w.ok()) {
       std::fprintf(stderr, "kgd get: %s\n", w.message().c_str());
       return 2;
     }

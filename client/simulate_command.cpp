@@ -174,10 +174,7 @@ void PrintHuman(const SceneSpec& scene, const SimulationResult& r) {
 }
 
 Status WriteResultPly(const std::string& path, const SceneSpec& scene, const SimulationResult& r) {
-  Eigen::VectorXd design(scene.design.size());
-  for (size_t f = 0; f < scene.design.size(); ++f) design[f] = scene.design[f];
-  return WritePly(path, r.positions, scene.garment.faces,
-                  {{"design", design, true}, {"energy_density_Pa", r.face_density_Pa, false}});
+  return WriteGarmentPly(path, r.positions, scene.garment.faces, scene.design, r.face_density_Pa);
 }
 
 // `--out result.ply` with frames: result_frame_01.ply, result_frame_02.ply, ...

@@ -395,12 +395,9 @@ void HttpGateway::Impl::Routes() {
     if (Status st = GarmentFromProto(out.garment(), &h); !st.ok()) return SetError(res, 500, ServiceCode::kInternal, st.message());
     Result<BesoIteration> it = RecordFromProto(out.record(), static_cast<int>(h.garment.faces.rows()), static_cast<int>(h.garment.vertices.rows()));
     if (!it.ok()) return SetError(res, 500, ServiceCode::kInternal, it.message());
-    Eigen::VectorXd design(it->design.size());
-    for (size_t f = 0; f < it->design.size(); ++f) design[f] = it->design[f];
     const std::string name = "job-" + std::string(req.matches[1]) + "-iteration-" + std::to_string(it->iteration) + ".ply";
     std::ostringstream ply;
-    if (Status st = WritePly(ply, name, it->positions, h.garment.faces, {{"design", design, true}, {"energy_density_Pa", it->energy_density_Pa, false}});
-        !st.ok())
+    if (Status st = WriteGarmentPly(ply, name, it->positions, h.garment.faces, it->design, it->energy_density_Pa); !st.ok())
       return SetError(res, 500, ServiceCode::kInternal, st.message());
     res.set_header("Content-Disposition", "attachment; filename=\"" + name + "\"");
     res.set_content(ply.str(), "application/octet-stream");

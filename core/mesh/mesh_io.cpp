@@ -364,6 +364,26 @@ Status WritePly(const std::string& path, const Positions& x, const Faces& faces,
   return WritePly(out, path, x, faces, face_properties);
 }
 
+namespace {
+
+std::vector<FaceProperty> GarmentFaceProperties(const std::vector<uint8_t>& design, const Eigen::VectorXd& energy_density_Pa) {
+  Eigen::VectorXd d(static_cast<Eigen::Index>(design.size()));
+  for (size_t f = 0; f < design.size(); ++f) d[static_cast<Eigen::Index>(f)] = design[f];
+  return {{"design", d, true}, {"energy_density_Pa", energy_density_Pa, false}};
+}
+
+}  // namespace
+
+Status WriteGarmentPly(const std::string& path, const Positions& x, const Faces& faces, const std::vector<uint8_t>& design,
+                       const Eigen::VectorXd& energy_density_Pa) {
+  return WritePly(path, x, faces, GarmentFaceProperties(design, energy_density_Pa));
+}
+
+Status WriteGarmentPly(std::ostream& out, const std::string& name, const Positions& x, const Faces& faces, const std::vector<uint8_t>& design,
+                       const Eigen::VectorXd& energy_density_Pa) {
+  return WritePly(out, name, x, faces, GarmentFaceProperties(design, energy_density_Pa));
+}
+
 Status WritePly(std::ostream& out, const std::string& path, const Positions& x, const Faces& faces,
                 const std::vector<FaceProperty>& face_properties) {
   for (const auto& p : face_properties)

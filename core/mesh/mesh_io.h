@@ -39,6 +39,14 @@ Status WritePly(const std::string& path, const Positions& x, const Faces& faces,
 Status WritePly(std::ostream& out, const std::string& name, const Positions& x, const Faces& faces,
                 const std::vector<FaceProperty>& face_properties = {});
 
+// A garment's result as PLY, the one layout every kgd command and download writes: the positions, and
+// per face `design` (uchar, 1 = reinforced) and `energy_density_Pa` (double, J/m^3). `design` and
+// `energy_density_Pa` have one value per face.
+Status WriteGarmentPly(const std::string& path, const Positions& x, const Faces& faces, const std::vector<uint8_t>& design,
+                       const Eigen::VectorXd& energy_density_Pa);
+Status WriteGarmentPly(std::ostream& out, const std::string& name, const Positions& x, const Faces& faces, const std::vector<uint8_t>& design,
+                       const Eigen::VectorXd& energy_density_Pa);
+
 // Writes an OBJ file (vertices with 9 significant digits, 1-based faces).
 Status WriteObj(const std::string& path, const Positions& x, const Faces& faces);
 

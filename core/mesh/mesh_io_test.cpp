@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <cstring>
 #include <fstream>
+#include <sstream>
 
 #include "core/scene/shapes.h"
 
@@ -31,6 +33,39 @@ TEST(MeshIo, ObjAndPlyRoundTrip) {
   ASSERT_TRUE(ply.ok()) << ply.message();
   EXPECT_EQ(ply->faces, m.faces);
   EXPECT_EQ(ply->vertices, m.vertices);  // doubles: exact
+}
+
+TEST(MeshIo, AGarmentPlyCarriesEachFacesDesignByteAndEnergyDensity) {
+  const TriMesh m = RectangleSheet(0.02, 0.03, 0.01);
+  const int nf = static_cast<int>(m.faces.rows());
+  std::vector<uint8_t> design(nf, 0);
+  design[1] = 1;
+  const Eigen::VectorXd energy = Eigen::VectorXd::LinSpaced(nf, 0.5, 7.25);
+  std::ostringstream out;
+  ASSERT_TRUE(WriteGarmentPly(out, "g.ply", m.vertices, m.faces, design, energy).ok());
+  const std::string bytes = out.str();
+  const std::string end = "end_header\n";
+  const size_t body = bytes.find(end) + end.size();
+  EXPECT_NE(bytes.find("property uchar design\nproperty double energy_density_Pa\nend_header"), std::string::npos) << bytes.substr(0, body);
+  // Each face: count (1), three int32 indices, the design byte, the energy density as a double.
+  const size_t face_bytes = 1 + 12 + 1 + 8;
+  ASSERT_EQ(bytes.size(), body + m.vertices.size() * 8 + nf * face_bytes);
+  for (int f = 0; f < nf; ++f) {
+    const char* face = bytes.data() + body + m.vertices.size() * 8 + f * face_bytes;
+    double e = 0;
+    std::memcpy(&e, face + 14, 8);
+    EXPECT_EQ(static_cast<uint8_t>(face[13]), design[f]) << "face " << f;
+    EXPECT_EQ(e, energy[f]) << "face " << f;
+  }
+  auto ply = ParseMesh(bytes, "g.ply");
+  ASSERT_TRUE(ply.ok()) << ply.message();
+  EXPECT_EQ(ply->vertices, m.vertices);
+  // A design of the wrong length is refused, naming the property.
+  design.pop_back();
+  std::ostringstream short_out;
+  const Status st = WriteGarmentPly(short_out, "g.ply", m.vertices, m.faces, design, energy);
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("'design'"), std::string::npos) << st.message();
 }
 
 TEST(MeshIo, AsciiPlyWithQuads) {
