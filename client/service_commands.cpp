@@ -24,9 +24,7 @@
 #include "job/fabrication_export.h"
 #include "proto/records.h"
 #include "proto/connection.h"
-#include "server/design_server.h"
-#include "server/http_gateway.h"
-#include "server/security_flags.h"
+#include "server/service_flags.h"
 #include "worker/design_worker.h"
 
 namespace kgd::cli {
@@ -403,45 +401,34 @@ int RunGet(const std::string& server, int64_t id, int iteration, const std::stri
   return 0;
 }
 
-server::HttpOptions WebDefaults() {
-  server::HttpOptions h;
-  h.web_dir = KGD_WEB_DIR;
-  return h;
-}
-
 struct ServeOptions {
-  server::ServerOptions server;
+  server::ServiceFlags service;
   int workers = 1;
   int jobs_per_worker = 1;
-  server::HttpOptions http = WebDefaults();
   bool no_http = false;
-  double max_upload_mb = 64;
-  server::SecurityFlags security;
 };
 
-int RunServe(ServeOptions o) {
-  umask(077);  // the data folder's files (SQLite, HDF5) are the owner's alone: 0600
-  BlockTerminationSignals();
-  if (Status st = server::ApplySecurityFlags(o.security, &o.server, &o.http); !st.ok()) {
-    std::fprintf(stderr, "kgd serve: %s\n", st.message().c_str());
+int RunServe(const ServeOptions& o) {
+  Result<server::HostOptions> options = server::HostOptionsOf(o.service);
+  if (!options.ok()) {
+    std::fprintf(stderr, "kgd serve: %s\n", options.message().c_str());
     return 1;
   }
-  // In-process workers: a worker token of their own, and with TLS a plaintext port on loopback.
-  const std::string worker_token = o.server.tokens.enabled() ? server::NewToken() : "";
-  if (!worker_token.empty()) o.server.tokens.Add(worker_token, "kgd-serve-workers", server::Role::kWorker);
-  if (!o.server.tls_cert.empty() && o.workers > 0) o.server.internal_address = "127.0.0.1:0";
-  auto server = server::DesignServer::Start(o.server);
-  if (!server.ok()) {
-    std::fprintf(stderr, "kgd serve: %s\n", server.message().c_str());
+  if (o.no_http) options->http.address.clear();
+  options->in_process_workers = o.workers > 0;
+  umask(077);  // the data folder's files (SQLite, HDF5) are the owner's alone: 0600
+  BlockTerminationSignals();
+  auto host = server::ServiceHost::Start(*options);
+  if (!host.ok()) {
+    std::fprintf(stderr, "kgd serve: %s\n", host.message().c_str());
     return 1;
   }
   std::vector<std::unique_ptr<worker::DesignWorker>> workers;
   for (int i = 0; i < o.workers; ++i) {
     worker::WorkerOptions wo;
-    wo.connection.server = (*server)->internal_address();
-    wo.connection.token = worker_token;
+    wo.connection = (*host)->worker_connection();
     wo.jobs = o.jobs_per_worker;
-    wo.quiet = o.server.quiet;
+    wo.quiet = options->service.quiet;
     wo.name = "serve-" + std::to_string(getpid()) + "-" + std::to_string(i);
     auto w = worker::DesignWorker::Start(wo);
     if (!w.ok()) {
@@ -450,26 +437,15 @@ int RunServe(ServeOptions o) {
     }
     workers.push_back(std::move(w).value());
   }
-  std::unique_ptr<server::HttpGateway> http;
-  if (!o.no_http) {
-    o.http.max_upload_bytes = static_cast<size_t>(o.max_upload_mb * (1 << 20));
-    auto g = server::HttpGateway::Start(&(*server)->service(), o.http);
-    if (!g.ok()) {
-      std::fprintf(stderr, "kgd serve: %s\n", g.message().c_str());
-      return 1;
-    }
-    http = std::move(g).value();
-  }
-  std::printf("listening on %s; data in %s; %d in-process worker%s\n", (*server)->address().c_str(), o.server.data_dir.c_str(), o.workers,
+  std::printf("listening on %s; data in %s; %d in-process worker%s\n", (*host)->grpc_address().c_str(), options->service.data_dir.c_str(), o.workers,
               o.workers == 1 ? "" : "s");
-  if (http) std::printf("web page and HTTP API: %s\n", http->url().c_str());
+  if (!(*host)->http_url().empty()) std::printf("web page and HTTP API: %s\n", (*host)->http_url().c_str());
   std::fflush(stdout);
   WaitForTerminationSignal();
-  if (http) http->Stop();
-  (*server)->Drain();
-  for (auto& w : workers) w->Stop();
-  for (auto& w : workers) w->Wait();
-  (*server)->Shutdown();
+  (*host)->Shutdown([&] {
+    for (auto& w : workers) w->Stop();
+    for (auto& w : workers) w->Wait();
+  });
   return 0;
 }
 
@@ -477,21 +453,11 @@ int RunServe(ServeOptions o) {
 
 void AddServiceCommands(CLI::App& app, int* exit_code) {
   auto serve = std::make_shared<ServeOptions>();
+  serve->service.host.http.web_dir = KGD_WEB_DIR;  // and the HTTP door on its default address
   CLI::App* sv = app.add_subcommand("serve", "Run the design service with in-process workers on a data folder (Ctrl-C drains and stops)");
-  sv->add_option("--data", serve->server.data_dir, "Data folder: kgd.sqlite and jobs/job-N.h5 (created if missing)")->required();
-  sv->add_option("--listen", serve->server.address, "host:port to listen on (port 0: any free port)")->capture_default_str();
+  server::AddServiceFlags(sv, &serve->service);
   sv->add_option("--workers", serve->workers, "In-process workers (0: only external kgd-worker processes)")->check(CLI::NonNegativeNumber)->capture_default_str();
-  sv->add_option("--lease-s", serve->server.lease_duration_s, "Seconds without a heartbeat after which a job is queued again")
-      ->check(CLI::PositiveNumber)->capture_default_str();
-  sv->add_option("--max-attempts", serve->server.max_attempts, "Leases a job gets before it fails")->check(CLI::PositiveNumber)->capture_default_str();
-  sv->add_flag("--quiet", serve->server.quiet, "No log lines");
-  sv->add_option("--http", serve->http.address, "host:port of the web page and the HTTP/JSON API (port 0: any free port)")->capture_default_str();
   sv->add_flag("--no-http", serve->no_http, "gRPC only: no web page, no HTTP API");
-  sv->add_option("--web", serve->http.web_dir, "Folder of the web page's files")->capture_default_str();
-  server::AddSecurityFlags(sv, &serve->security);
-  sv->add_option("--max-upload-mb", serve->max_upload_mb, "Largest HTTP request body accepted (MiB)")->check(CLI::PositiveNumber)->capture_default_str();
-  sv->add_option("--max-watchers", serve->http.max_watchers, "Open HTTP watch streams (Server-Sent Events) served at once")
-      ->check(CLI::PositiveNumber)->capture_default_str();
   sv->callback([serve, exit_code] { *exit_code = RunServe(*serve); });
 
   auto submit = std::make_shared<SubmitOptions>();

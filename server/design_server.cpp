@@ -116,24 +116,32 @@ class GrpcServices final : public v1::DesignService::Service, public v1::WorkerS
 }  // namespace
 
 struct DesignServer::Impl {
-  ServerOptions options;
-  std::unique_ptr<JobService> service;
+  GrpcOptions options;
+  JobService* service = nullptr;
   std::unique_ptr<GrpcServices> services;
   std::unique_ptr<grpc::Server> server;
   int port = 0, internal_port = 0;
   bool shut = false;
 };
 
-Result<std::unique_ptr<DesignServer>> DesignServer::Start(const ServerOptions& options) {
+Status DesignServer::CheckOptions(const GrpcOptions& options, bool tokens) {
+  const bool tls = !options.tls_cert.empty() || !options.tls_key.empty();
+  if (tls && (options.tls_cert.empty() || options.tls_key.empty())) return Status::Error("TLS needs both --tls-cert and --tls-key");
+  KGD_RETURN_IF_ERROR(CheckExposure("--listen", options.address, tls, tokens, options.insecure));
+  if (!options.internal_address.empty() && !IsLoopbackAddress(options.internal_address))
+    return Status::Error("the internal port " + options.internal_address + " must be on loopback");
+  return Status::Ok();
+}
+
+Result<std::unique_ptr<DesignServer>> DesignServer::Start(JobService& service, const GrpcOptions& options) {
+  KGD_RETURN_IF_ERROR(CheckOptions(options, service.options().tokens.enabled()));
   auto s = std::unique_ptr<DesignServer>(new DesignServer);
   s->impl_ = std::make_unique<Impl>();
   Impl& m = *s->impl_;
   m.options = options;
-  const bool tls = !options.tls_cert.empty() || !options.tls_key.empty();
-  if (tls && (options.tls_cert.empty() || options.tls_key.empty())) return Status::Error("TLS needs both --tls-cert and --tls-key");
-  KGD_RETURN_IF_ERROR(CheckExposure("--listen", options.address, tls, options.tokens.enabled(), options.insecure));
+  m.service = &service;
   std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
-  if (tls) {
+  if (!options.tls_cert.empty()) {
     Result<std::string> cert = ReadPemFile(options.tls_cert, "certificate (--tls-cert)");
     if (!cert.ok()) return cert.status();
     Result<std::string> key = ReadPemFile(options.tls_key, "private key (--tls-key)");
@@ -142,31 +150,20 @@ Result<std::unique_ptr<DesignServer>> DesignServer::Start(const ServerOptions& o
     ssl.pem_key_cert_pairs.push_back({*key, *cert});
     credentials = grpc::SslServerCredentials(ssl);
   }
-  Result<std::unique_ptr<JobService>> service = JobService::Open({.data_dir = options.data_dir,
-                                                                  .lease_duration_s = options.lease_duration_s,
-                                                                  .max_attempts = options.max_attempts,
-                                                                  .quiet = options.quiet,
-                                                                  .tokens = options.tokens,
-                                                                  .limits = options.limits});
-  if (!service.ok()) return service.status();
-  m.service = std::move(service).value();
-  m.services = std::make_unique<GrpcServices>(m.service.get());
+  m.services = std::make_unique<GrpcServices>(&service);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   builder.AddListeningPort(options.address, credentials, &m.port);
-  if (!options.internal_address.empty()) {
-    if (!IsLoopbackAddress(options.internal_address)) return Status::Error("the internal port " + options.internal_address + " must be on loopback");
-    builder.AddListeningPort(options.internal_address, grpc::InsecureServerCredentials(), &m.internal_port);
-  }
+  if (!options.internal_address.empty()) builder.AddListeningPort(options.internal_address, grpc::InsecureServerCredentials(), &m.internal_port);
   builder.SetMaxReceiveMessageSize(options.max_message_bytes);
   builder.SetMaxSendMessageSize(options.max_message_bytes);
   builder.RegisterService(static_cast<v1::DesignService::Service*>(m.services.get()));
   builder.RegisterService(static_cast<v1::WorkerService::Service*>(m.services.get()));
   m.server = builder.BuildAndStart();
   if (!m.server || m.port == 0) return Status::Error(options.address + ": cannot listen (address in use?)");
-  if (!options.quiet) std::fprintf(stderr, "kgd-server: serving on %s (data in %s)\n", s->address().c_str(), options.data_dir.c_str());
+  if (!options.quiet) std::fprintf(stderr, "kgd-server: serving on %s (data in %s)\n", s->address().c_str(), service.options().data_dir.c_str());
   return s;
 }
 
@@ -183,18 +180,11 @@ std::string DesignServer::internal_address() const {
   const std::string& a = impl_->options.internal_address;
   return a.substr(0, a.rfind(':')) + ":" + std::to_string(impl_->internal_port);
 }
-const std::string& DesignServer::data_dir() const { return impl_->options.data_dir; }
-JobService& DesignServer::service() { return *impl_->service; }
-
-void DesignServer::Drain() { impl_->service->Drain(impl_->options.drain_timeout_s); }
-
 void DesignServer::Shutdown() {
   Impl& m = *impl_;
-  if (!m.service || m.shut) return;
+  if (m.shut) return;
   m.shut = true;
-  m.service->Stop();
   if (m.server) m.server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
-  m.service->Close();
 }
 
 void DesignServer::Wait() {

@@ -2,52 +2,21 @@
 
 #include <google/protobuf/util/json_util.h>
 
-#include <atomic>
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
+#include <nlohmann/json.hpp>
 #include <thread>
 
-#include "core/mesh/mesh_io.h"
 #include "proto/job_spec.h"
 #include "proto/connection.h"
-#include "proto/records.h"
+#include "server/job_results.h"
 // After Eigen (through the headers above): a macro of the socket headers it pulls in breaks Eigen's.
 #include <httplib.h>
 #include <sys/socket.h>
-#include <netinet/in.h>
 
 namespace kgd::server {
 namespace {
-
-// Debian's cpp-httplib listens with a backlog of 5 (compiled in): a burst of connections, such as
-// a hundred watchers opening at once, overflows it and the kernel drops SYNs, which clients retry
-// seconds later or give up on. Listening again on the same socket widens the queue (Linux keeps the
-// socket and takes the new backlog); the socket is the one of this process listening on `port`.
-void WidenListenBacklog(int port) {
-  std::error_code ec;
-  for (const auto& entry : std::filesystem::directory_iterator("/proc/self/fd", ec)) {
-    int fd = -1;
-    try {
-      fd = std::stoi(entry.path().filename().string());
-    } catch (...) {
-      continue;
-    }
-    int listening = 0;
-    socklen_t len = sizeof(listening);
-    if (getsockopt(fd, SOL_SOCKET, SO_ACCEPTCONN, &listening, &len) != 0 || !listening) continue;
-    sockaddr_storage addr{};
-    socklen_t alen = sizeof(addr);
-    if (getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &alen) != 0) continue;
-    const int bound = addr.ss_family == AF_INET    ? ntohs(reinterpret_cast<sockaddr_in*>(&addr)->sin_port)
-                      : addr.ss_family == AF_INET6 ? ntohs(reinterpret_cast<sockaddr_in6*>(&addr)->sin6_port)
-                                                   : -1;
-    if (bound == port) ::listen(fd, SOMAXCONN);
-  }
-}
 
 namespace pbu = google::protobuf::util;
 using Clock = std::chrono::steady_clock;
@@ -82,32 +51,13 @@ std::string CookieValue(const httplib::Request& req, const std::string& name) {
   return "";
 }
 
-std::string JsonEscape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\r': out += "\\r"; break;
-      case '\t': out += "\\t"; break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof buf, "\\u%04x", c);
-          out += buf;
-        } else {
-          out += c;
-        }
-    }
-  }
-  return out;
-}
+// `s` as a JSON string (quoted); bytes that are not UTF-8 become U+FFFD.
+std::string JsonString(const std::string& s) { return nlohmann::json(s).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
 
 void SetError(httplib::Response& res, int http_status, ServiceCode code, const std::string& message) {
   res.status = http_status;
   res.set_content("{\"error\": {\"code\": " + std::to_string(http_status) + ", \"status\": \"" + ServiceCodeName(code) +
-                      "\", \"message\": \"" + JsonEscape(message) + "\"}}\n",
+                      "\", \"message\": " + JsonString(message) + "}}\n",
                   "application/json");
 }
 
@@ -148,18 +98,11 @@ std::string LittleEndianBytes(const std::vector<T>& values) {
   return std::string(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
 }
 
-// Strain energy per rest area (J/m^2) of each face as little-endian float32: the energy density
-// (J/m^3) times the thickness of the face's material.
-template <typename Field>
-void SetEnergyPerArea(httplib::Response& res, const v1::Garment& g, const std::string& design, const Field& energy_density_Pa) {
-  const int nf = energy_density_Pa.size();
-  if (g.cloth_thickness_m() <= 0 || g.reinforced_thickness_m() <= 0)
-    return SetError(res, 400, ServiceCode::kFailedPrecondition,
-                    "the job's design file does not store the material thicknesses (written by an older kgd): energy per area is unknown");
-  if (static_cast<int>(design.size()) != nf)
-    return SetError(res, 500, ServiceCode::kInternal, std::to_string(design.size()) + " design values for " + std::to_string(nf) + " faces");
-  std::vector<float> e(nf);
-  for (int f = 0; f < nf; ++f) e[f] = static_cast<float>(energy_density_Pa[f] * (design[f] ? g.reinforced_thickness_m() : g.cloth_thickness_m()));
+// Strain energy per rest area of each face (server/job_results.h) as little-endian float32.
+void SetEnergyPerArea(httplib::Response& res, const v1::Garment& g, const std::string& design,
+                      const google::protobuf::RepeatedField<double>& energy_density_Pa) {
+  std::vector<float> e;
+  if (ServiceStatus st = EnergyPerArea(g, design, energy_density_Pa, &e); !st.ok()) return SetError(res, st);
   res.set_content(LittleEndianBytes(e), "application/octet-stream");
 }
 
@@ -171,9 +114,9 @@ struct HttpGateway::Impl {
   std::unique_ptr<httplib::Server> server;  // an SSLServer with TLS
   std::thread listener;
   std::atomic<bool> stopping{false};
-  std::atomic<int> watchers{0};
   int port = 0;
   std::string host;
+  int listening_socket = -1;  // the socket the library made last (set in its socket-options callback)
 
   // The request's caller: the Authorization header's bearer token, or for GET (the browser's
   // EventSource and download links cannot send headers) the cookie kgd_token.
@@ -199,53 +142,42 @@ struct HttpGateway::Impl {
     *id = v;
     return true;
   }
-
-  bool Iteration(const httplib::Request& req, httplib::Response& res, v1::GetIterationResponse* out, bool with_garment) {
-    int64_t id = 0;
-    if (!JobId(req, res, &id)) return false;
-    long long n = 0;
-    if (!ParseInt(req.matches[2], -1, &n) || n > 1 << 30) {
+  bool IterationNumber(const httplib::Request& req, httplib::Response& res, int* n) {
+    long long v = 0;
+    if (!ParseInt(req.matches[2], -1, &v) || v > 1 << 30) {
       SetError(res, 400, ServiceCode::kInvalidArgument, "iteration '" + std::string(req.matches[2]) + "' is not an integer >= -1");
       return false;
     }
-    v1::GetIterationRequest r;
-    r.set_id(id);
-    r.set_iteration(static_cast<int>(n));
-    r.set_with_garment(with_garment);
-    if (ServiceStatus st = service->GetIteration(CallerOf(req), r, out); !st.ok()) {
-      SetError(res, st);
-      return false;
-    }
+    *n = static_cast<int>(v);
     return true;
   }
 
-  // The garment of a job (from its first stored iteration's response).
-  bool Garment(const httplib::Request& req, httplib::Response& res, v1::Garment* out) {
+  // False (the response set to the error) when `st` is one.
+  static bool Answered(httplib::Response& res, const ServiceStatus& st) {
+    if (st.ok()) return true;
+    SetError(res, st);
+    return false;
+  }
+
+  bool Iteration(const httplib::Request& req, httplib::Response& res, v1::GetIterationResponse* out, bool with_garment) {
     int64_t id = 0;
-    if (!JobId(req, res, &id)) return false;
+    int n = 0;
+    if (!JobId(req, res, &id) || !IterationNumber(req, res, &n)) return false;
     v1::GetIterationRequest r;
     r.set_id(id);
-    r.set_iteration(0);
-    r.set_with_garment(true);
-    v1::GetIterationResponse resp;
-    if (ServiceStatus st = service->GetIteration(CallerOf(req), r, &resp); !st.ok()) {
-      if (st.code == ServiceCode::kNotFound && st.message.find("is not stored") != std::string::npos)
-        st.message = "job " + std::to_string(id) + " has no garment yet (it has no iteration; watch it until the first arrives)";
-      SetError(res, st);
-      return false;
-    }
-    *out = std::move(*resp.mutable_garment());
-    return true;
+    r.set_iteration(n);
+    r.set_with_garment(with_garment);
+    return Answered(res, service->GetIteration(CallerOf(req), r, out));
+  }
+
+  bool Garment(const httplib::Request& req, httplib::Response& res, v1::Garment* out) {
+    int64_t id = 0;
+    return JobId(req, res, &id) && Answered(res, service->GetGarment(CallerOf(req), id, out));
   }
 
   bool Evaluation(const httplib::Request& req, httplib::Response& res, v1::DesignEvaluation* out) {
     int64_t id = 0;
-    if (!JobId(req, res, &id)) return false;
-    if (ServiceStatus st = service->GetEvaluation(CallerOf(req), id, out); !st.ok()) {
-      SetError(res, st);
-      return false;
-    }
-    return true;
+    return JobId(req, res, &id) && Answered(res, service->GetEvaluation(CallerOf(req), id, out));
   }
 
   // The iteration an evaluation is of, with the garment (for the thicknesses).
@@ -254,30 +186,36 @@ struct HttpGateway::Impl {
     r.set_id(std::atoll(std::string(req.matches[1]).c_str()));
     r.set_iteration(e.iteration());
     r.set_with_garment(true);
-    if (ServiceStatus st = service->GetIteration(CallerOf(req), r, out); !st.ok()) {
-      SetError(res, st);
-      return false;
-    }
-    return true;
+    return Answered(res, service->GetIteration(CallerOf(req), r, out));
   }
 
-  void Routes();
+  // One function per resource; each registers its routes (the table in http_gateway.h).
+  void ServiceRoutes();     // /metrics, /v1/scenes
+  void JobRoutes();         // /v1/jobs, /v1/jobs/{id}, :cancel, :watch
+  void IterationRoutes();   // /v1/jobs/{id}/iterations/{n}[/positions.f32|energy.f32|design.u8|design.ply]
+  void CutFileRoutes();     // /v1/jobs/{id}/iterations/{n}/cut/...
+  void GarmentRoutes();     // /v1/jobs/{id}/garment/..., /v1/jobs/{id}/body/...
+  void EvaluationRoutes();  // /v1/jobs/{id}/evaluation[/frames/...|/baselines/...]
+  void DesignFileRoutes();  // /v1/jobs/{id}/design-file
   void Watch(const httplib::Request& req, httplib::Response& res);
   void CreateJob(const httplib::Request& req, httplib::Response& res);
 };
 
-void HttpGateway::Impl::Routes() {
-  httplib::Server& http = *server;
-  http.Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
+using Request = httplib::Request;
+using Response = httplib::Response;
+
+void HttpGateway::Impl::ServiceRoutes() {
+  server->Get("/metrics", [this](const Request&, Response& res) {
     res.set_content(service->MetricsText(), "text/plain; version=0.0.4; charset=utf-8");
   });
-  http.Get("/v1/scenes", [this](const httplib::Request&, httplib::Response& res) {
+  server->Get("/v1/scenes", [this](const Request&, Response& res) {
     v1::ListScenesResponse out;
-    if (ServiceStatus st = service->ListScenes(&out); !st.ok()) return SetError(res, st);
-    SetMessage(res, out);
+    if (Answered(res, service->ListScenes(&out))) SetMessage(res, out);
   });
+}
 
-  http.Get("/v1/jobs", [this](const httplib::Request& req, httplib::Response& res) {
+void HttpGateway::Impl::JobRoutes() {
+  server->Get("/v1/jobs", [this](const Request& req, Response& res) {
     v1::ListJobsRequest r;
     if (req.has_param("pageSize")) {
       long long n = 0;
@@ -294,163 +232,99 @@ void HttpGateway::Impl::Routes() {
       r.set_state_filter(state);
     }
     v1::ListJobsResponse out;
-    if (ServiceStatus st = service->ListJobs(CallerOf(req), r, &out); !st.ok()) return SetError(res, st);
-    SetMessage(res, out);
+    if (Answered(res, service->ListJobs(CallerOf(req), r, &out))) SetMessage(res, out);
   });
-
-  http.Post("/v1/jobs", [this](const httplib::Request& req, httplib::Response& res) { CreateJob(req, res); });
-
-  http.Get(R"(/v1/jobs/([^/:]+))", [this](const httplib::Request& req, httplib::Response& res) {
+  server->Post("/v1/jobs", [this](const Request& req, Response& res) { CreateJob(req, res); });
+  server->Get(R"(/v1/jobs/([^/:]+))", [this](const Request& req, Response& res) {
     int64_t id = 0;
-    if (!JobId(req, res, &id)) return;
     v1::Job job;
-    if (ServiceStatus st = service->GetJob(CallerOf(req), id, &job); !st.ok()) return SetError(res, st);
-    SetMessage(res, job);
+    if (JobId(req, res, &id) && Answered(res, service->GetJob(CallerOf(req), id, &job))) SetMessage(res, job);
   });
-
-  http.Post(R"(/v1/jobs/([^/:]+):cancel)", [this](const httplib::Request& req, httplib::Response& res) {
+  server->Post(R"(/v1/jobs/([^/:]+):cancel)", [this](const Request& req, Response& res) {
     int64_t id = 0;
-    if (!JobId(req, res, &id)) return;
     v1::Job job;
-    if (ServiceStatus st = service->CancelJob(CallerOf(req), id, &job); !st.ok()) return SetError(res, st);
-    SetMessage(res, job);
+    if (JobId(req, res, &id) && Answered(res, service->CancelJob(CallerOf(req), id, &job))) SetMessage(res, job);
   });
+  server->Get(R"(/v1/jobs/([^/:]+):watch)", [this](const Request& req, Response& res) { Watch(req, res); });
+}
 
-  http.Get(R"(/v1/jobs/([^/:]+):watch)", [this](const httplib::Request& req, httplib::Response& res) { Watch(req, res); });
-
-  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
+void HttpGateway::Impl::IterationRoutes() {
+  server->Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+))", [this](const Request& req, Response& res) {
     v1::GetIterationResponse out;
     if (Iteration(req, res, &out, req.get_param_value("withGarment") == "true")) SetMessage(res, out);
   });
-
-  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/positions\.f32)", [this](const httplib::Request& req, httplib::Response& res) {
+  server->Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/positions\.f32)", [this](const Request& req, Response& res) {
     v1::GetIterationResponse out;
-    if (!Iteration(req, res, &out, false)) return;
-    const std::vector<float> x(out.record().positions().begin(), out.record().positions().end());
-    res.set_content(LittleEndianBytes(x), "application/octet-stream");
+    if (Iteration(req, res, &out, false))
+      res.set_content(LittleEndianBytes(std::vector<float>(out.record().positions().begin(), out.record().positions().end())), "application/octet-stream");
   });
-
-  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/energy\.f32)", [this](const httplib::Request& req, httplib::Response& res) {
+  server->Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/energy\.f32)", [this](const Request& req, Response& res) {
     v1::GetIterationResponse out;
     if (Iteration(req, res, &out, true)) SetEnergyPerArea(res, out.garment(), out.record().design(), out.record().energy_density_pa());
   });
-
-  // The finished design over the motion and beside the baselines: figures as JSON, arrays as binary.
-  http.Get(R"(/v1/jobs/([^/:]+)/evaluation)", [this](const httplib::Request& req, httplib::Response& res) {
-    v1::DesignEvaluation e;
-    if (!Evaluation(req, res, &e)) return;
-    for (v1::MotionFrame& f : *e.mutable_frames()) f.clear_positions(), f.clear_body_vertices(), f.clear_energy_density_pa(), f.clear_skin_pressure_pa();
-    for (v1::BaselineRecord& b : *e.mutable_baselines()) b.clear_positions(), b.clear_energy_density_pa(), b.clear_design();
-    SetMessage(res, e);
-  });
-  http.Get(R"(/v1/jobs/([^/:]+)/evaluation/frames/([^/]+)/(positions\.f32|body\.f32|energy\.f32|pressure\.f32))",
-           [this](const httplib::Request& req, httplib::Response& res) {
-             v1::DesignEvaluation e;
-             if (!Evaluation(req, res, &e)) return;
-             long long k = 0;
-             if (!ParseInt(req.matches[2], 1, &k) || k > e.frames_size())
-               return SetError(res, 404, ServiceCode::kNotFound,
-                               "frame '" + std::string(req.matches[2]) + "' is not one of 1.." + std::to_string(e.frames_size()));
-             const v1::MotionFrame& f = e.frames(static_cast<int>(k - 1));
-             if (req.matches[3] == "positions.f32")
-               return res.set_content(LittleEndianBytes(std::vector<float>(f.positions().begin(), f.positions().end())), "application/octet-stream");
-             if (req.matches[3] == "body.f32") {
-               if (f.body_vertices_size() == 0) return SetError(res, 404, ServiceCode::kNotFound, "the evaluation has no body");
-               return res.set_content(LittleEndianBytes(std::vector<float>(f.body_vertices().begin(), f.body_vertices().end())),
-                                      "application/octet-stream");
-             }
-             if (req.matches[3] == "pressure.f32") {  // Pa per body vertex
-               if (f.skin_pressure_pa_size() == 0)
-                 return SetError(res, 404, ServiceCode::kNotFound, "the evaluation has no skin pressure (no body or no contact)");
-               return res.set_content(LittleEndianBytes(std::vector<float>(f.skin_pressure_pa().begin(), f.skin_pressure_pa().end())),
-                                      "application/octet-stream");
-             }
-             v1::GetIterationResponse it;
-             if (EvaluatedIteration(req, res, e, &it)) SetEnergyPerArea(res, it.garment(), it.record().design(), f.energy_density_pa());
-           });
-  http.Get(R"(/v1/jobs/([^/:]+)/evaluation/baselines/([^/]+)/(positions\.f32|design\.u8|energy\.f32))",
-           [this](const httplib::Request& req, httplib::Response& res) {
-             v1::DesignEvaluation e;
-             if (!Evaluation(req, res, &e)) return;
-             const v1::BaselineRecord* b = nullptr;
-             for (const v1::BaselineRecord& r : e.baselines())
-               if (r.name() == req.matches[2]) b = &r;
-             if (!b) return SetError(res, 404, ServiceCode::kNotFound, "the evaluation has no baseline '" + std::string(req.matches[2]) + "'");
-             if (req.matches[3] == "positions.f32")
-               return res.set_content(LittleEndianBytes(std::vector<float>(b->positions().begin(), b->positions().end())), "application/octet-stream");
-             if (req.matches[3] == "design.u8") return res.set_content(b->design(), "application/octet-stream");
-             v1::GetIterationResponse it;
-             if (EvaluatedIteration(req, res, e, &it)) SetEnergyPerArea(res, it.garment(), b->design(), b->energy_density_pa());
-           });
-
-  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/design\.u8)", [this](const httplib::Request& req, httplib::Response& res) {
+  server->Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/design\.u8)", [this](const Request& req, Response& res) {
     v1::GetIterationResponse out;
     if (Iteration(req, res, &out, false)) res.set_content(out.record().design(), "application/octet-stream");
   });
-
-  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/design\.ply)", [this](const httplib::Request& req, httplib::Response& res) {
+  server->Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/design\.ply)", [this](const Request& req, Response& res) {
     v1::GetIterationResponse out;
     if (!Iteration(req, res, &out, true)) return;
-    DesignFileHeader h;
-    if (Status st = GarmentFromProto(out.garment(), &h); !st.ok()) return SetError(res, 500, ServiceCode::kInternal, st.message());
-    Result<BesoIteration> it = RecordFromProto(out.record(), static_cast<int>(h.garment.faces.rows()), static_cast<int>(h.garment.vertices.rows()));
-    if (!it.ok()) return SetError(res, 500, ServiceCode::kInternal, it.message());
-    const std::string name = "job-" + std::string(req.matches[1]) + "-iteration-" + std::to_string(it->iteration) + ".ply";
-    std::ostringstream ply;
-    if (Status st = WriteGarmentPly(ply, name, it->positions, h.garment.faces, it->design, it->energy_density_Pa); !st.ok())
-      return SetError(res, 500, ServiceCode::kInternal, st.message());
+    const std::string name = "job-" + std::string(req.matches[1]) + "-iteration-" + std::to_string(out.record().metrics().iteration()) + ".ply";
+    std::string ply;
+    if (!Answered(res, IterationPly(out, name, &ply))) return;
     res.set_header("Content-Disposition", "attachment; filename=\"" + name + "\"");
-    res.set_content(ply.str(), "application/octet-stream");
+    res.set_content(ply, "application/octet-stream");
   });
+}
 
-  // Cut files (docs/FABRICATION.md) of an iteration, made on request by geometry alone.
-  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/cut/(pattern\.svg|pattern\.dxf|pattern\.png|patches\.svg|patches\.dxf|patches\.png|report\.json))",
-           [this](const httplib::Request& req, httplib::Response& res) {
-             int64_t id = 0;
-             if (!JobId(req, res, &id)) return;
-             long long n = 0;
-             if (!ParseInt(req.matches[2], -1, &n) || n > 1 << 30)
-               return SetError(res, 400, ServiceCode::kInvalidArgument, "iteration '" + std::string(req.matches[2]) + "' is not an integer >= -1");
-             v1::ExportDesignRequest r;
-             r.set_id(id);
-             r.set_iteration(static_cast<int>(n));
-             r.set_no_mirror(req.get_param_value("mirror") == "false");
-             for (const auto& [param, set] : std::initializer_list<std::pair<const char*, void (v1::ExportDesignRequest::*)(double)>>{
-                      {"minFeatureMm", &v1::ExportDesignRequest::set_min_feature_mm},
-                      {"seamAllowanceMm", &v1::ExportDesignRequest::set_seam_allowance_mm},
-                      {"sheetWidthMm", &v1::ExportDesignRequest::set_sheet_width_mm}})
-               if (req.has_param(param)) {
-                 char* end = nullptr;
-                 const std::string v = req.get_param_value(param);
-                 const double d = std::strtod(v.c_str(), &end);
-                 if (v.empty() || end != v.c_str() + v.size() || !std::isfinite(d) || d < 0)
-                   return SetError(res, 400, ServiceCode::kInvalidArgument, std::string(param) + " '" + v + "' is not a finite number >= 0");
-                 (r.*set)(d);
-               }
-             v1::ExportDesignResponse out;
-             if (ServiceStatus st = service->ExportDesign(CallerOf(req), r, &out); !st.ok()) return SetError(res, st);
-             const std::string name = req.matches[3];
-             const auto it = out.files().find(name);
-             if (it == out.files().end()) return SetError(res, 500, ServiceCode::kInternal, "the export made no " + name);
-             const std::string type = name.ends_with(".svg")    ? "image/svg+xml"
-                                      : name.ends_with(".png")  ? "image/png"
-                                      : name.ends_with(".json") ? "application/json"
-                                                                : "application/dxf";
-             res.set_header("Content-Disposition", "attachment; filename=\"job-" + std::to_string(id) + "-" + name + "\"");
-             res.set_content(it->second, type.c_str());
-           });
+// Cut files (docs/FABRICATION.md) of an iteration, made on request by geometry alone.
+void HttpGateway::Impl::CutFileRoutes() {
+  server->Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/cut/(pattern\.svg|pattern\.dxf|pattern\.png|patches\.svg|patches\.dxf|patches\.png|report\.json))",
+              [this](const Request& req, Response& res) {
+                int64_t id = 0;
+                int n = 0;
+                if (!JobId(req, res, &id) || !IterationNumber(req, res, &n)) return;
+                v1::ExportDesignRequest r;
+                r.set_id(id);
+                r.set_iteration(n);
+                r.set_no_mirror(req.get_param_value("mirror") == "false");
+                for (const auto& [param, set] : std::initializer_list<std::pair<const char*, void (v1::ExportDesignRequest::*)(double)>>{
+                         {"minFeatureMm", &v1::ExportDesignRequest::set_min_feature_mm},
+                         {"seamAllowanceMm", &v1::ExportDesignRequest::set_seam_allowance_mm},
+                         {"sheetWidthMm", &v1::ExportDesignRequest::set_sheet_width_mm}})
+                  if (req.has_param(param)) {
+                    char* end = nullptr;
+                    const std::string v = req.get_param_value(param);
+                    const double d = std::strtod(v.c_str(), &end);
+                    if (v.empty() || end != v.c_str() + v.size() || !std::isfinite(d) || d < 0)
+                      return SetError(res, 400, ServiceCode::kInvalidArgument, std::string(param) + " '" + v + "' is not a finite number >= 0");
+                    (r.*set)(d);
+                  }
+                v1::ExportDesignResponse out;
+                if (!Answered(res, service->ExportDesign(CallerOf(req), r, &out))) return;
+                const std::string name = req.matches[3];
+                const auto it = out.files().find(name);
+                if (it == out.files().end()) return SetError(res, 500, ServiceCode::kInternal, "the export made no " + name);
+                const std::string type = name.ends_with(".svg")    ? "image/svg+xml"
+                                         : name.ends_with(".png")  ? "image/png"
+                                         : name.ends_with(".json") ? "application/json"
+                                                                   : "application/dxf";
+                res.set_header("Content-Disposition", "attachment; filename=\"job-" + std::to_string(id) + "-" + name + "\"");
+                res.set_content(it->second, type.c_str());
+              });
+}
 
-  http.Get(R"(/v1/jobs/([^/:]+)/garment/faces\.u32)", [this](const httplib::Request& req, httplib::Response& res) {
+void HttpGateway::Impl::GarmentRoutes() {
+  server->Get(R"(/v1/jobs/([^/:]+)/garment/faces\.u32)", [this](const Request& req, Response& res) {
     v1::Garment g;
-    if (!Garment(req, res, &g)) return;
-    res.set_content(LittleEndianBytes(std::vector<uint32_t>(g.faces().begin(), g.faces().end())), "application/octet-stream");
+    if (Garment(req, res, &g)) res.set_content(LittleEndianBytes(std::vector<uint32_t>(g.faces().begin(), g.faces().end())), "application/octet-stream");
   });
-  http.Get(R"(/v1/jobs/([^/:]+)/garment/rest\.f32)", [this](const httplib::Request& req, httplib::Response& res) {
+  server->Get(R"(/v1/jobs/([^/:]+)/garment/rest\.f32)", [this](const Request& req, Response& res) {
     v1::Garment g;
-    if (!Garment(req, res, &g)) return;
-    res.set_content(LittleEndianBytes(std::vector<float>(g.rest_vertices().begin(), g.rest_vertices().end())), "application/octet-stream");
+    if (Garment(req, res, &g))
+      res.set_content(LittleEndianBytes(std::vector<float>(g.rest_vertices().begin(), g.rest_vertices().end())), "application/octet-stream");
   });
-  http.Get(R"(/v1/jobs/([^/:]+)/body/(vertices\.f32|faces\.u32))", [this](const httplib::Request& req, httplib::Response& res) {
+  server->Get(R"(/v1/jobs/([^/:]+)/body/(vertices\.f32|faces\.u32))", [this](const Request& req, Response& res) {
     v1::Garment g;
     if (!Garment(req, res, &g)) return;
     if (g.body_faces_size() == 0)
@@ -460,34 +334,69 @@ void HttpGateway::Impl::Routes() {
     else
       res.set_content(LittleEndianBytes(std::vector<uint32_t>(g.body_faces().begin(), g.body_faces().end())), "application/octet-stream");
   });
+}
 
-  http.Get(R"(/v1/jobs/([^/:]+)/design-file)", [this](const httplib::Request& req, httplib::Response& res) {
-    int64_t id = 0;
-    if (!JobId(req, res, &id)) return;
-    v1::Job job;
-    if (ServiceStatus st = service->GetJob(CallerOf(req), id, &job); !st.ok()) return SetError(res, st);
-    if (job.state() == v1::QUEUED || job.state() == v1::RUNNING)
-      return SetError(res, 400, ServiceCode::kFailedPrecondition,
-                      "job " + std::to_string(id) + " is " + v1::JobState_Name(job.state()) +
-                          ": its design file is still being written; download it once the job has ended (an iteration's PLY is ready now)");
-    std::ifstream in(job.data_file(), std::ios::binary);
-    if (job.data_file().empty() || !in)
-      return SetError(res, 404, ServiceCode::kNotFound, "job " + std::to_string(id) + " has no design file (it stored no iteration)");
-    std::ostringstream bytes;
-    bytes << in.rdbuf();
-    res.set_header("Content-Disposition", "attachment; filename=\"job-" + std::to_string(id) + ".h5\"");
-    res.set_content(bytes.str(), "application/x-hdf5");
+// The finished design over the motion and beside the baselines: figures as JSON, arrays as binary.
+void HttpGateway::Impl::EvaluationRoutes() {
+  server->Get(R"(/v1/jobs/([^/:]+)/evaluation)", [this](const Request& req, Response& res) {
+    v1::DesignEvaluation e;
+    if (!Evaluation(req, res, &e)) return;
+    for (v1::MotionFrame& f : *e.mutable_frames()) f.clear_positions(), f.clear_body_vertices(), f.clear_energy_density_pa(), f.clear_skin_pressure_pa();
+    for (v1::BaselineRecord& b : *e.mutable_baselines()) b.clear_positions(), b.clear_energy_density_pa(), b.clear_design();
+    SetMessage(res, e);
+  });
+  server->Get(R"(/v1/jobs/([^/:]+)/evaluation/frames/([^/]+)/(positions\.f32|body\.f32|energy\.f32|pressure\.f32))", [this](const Request& req, Response& res) {
+    v1::DesignEvaluation e;
+    if (!Evaluation(req, res, &e)) return;
+    long long k = 0;
+    if (!ParseInt(req.matches[2], 1, &k) || k > e.frames_size())
+      return SetError(res, 404, ServiceCode::kNotFound, "frame '" + std::string(req.matches[2]) + "' is not one of 1.." + std::to_string(e.frames_size()));
+    const v1::MotionFrame& f = e.frames(static_cast<int>(k - 1));
+    if (req.matches[3] == "positions.f32")
+      return res.set_content(LittleEndianBytes(std::vector<float>(f.positions().begin(), f.positions().end())), "application/octet-stream");
+    if (req.matches[3] == "body.f32") {
+      if (f.body_vertices_size() == 0) return SetError(res, 404, ServiceCode::kNotFound, "the evaluation has no body");
+      return res.set_content(LittleEndianBytes(std::vector<float>(f.body_vertices().begin(), f.body_vertices().end())), "application/octet-stream");
+    }
+    if (req.matches[3] == "pressure.f32") {  // Pa per body vertex
+      if (f.skin_pressure_pa_size() == 0) return SetError(res, 404, ServiceCode::kNotFound, "the evaluation has no skin pressure (no body or no contact)");
+      return res.set_content(LittleEndianBytes(std::vector<float>(f.skin_pressure_pa().begin(), f.skin_pressure_pa().end())), "application/octet-stream");
+    }
+    v1::GetIterationResponse it;
+    if (EvaluatedIteration(req, res, e, &it)) SetEnergyPerArea(res, it.garment(), it.record().design(), f.energy_density_pa());
+  });
+  server->Get(R"(/v1/jobs/([^/:]+)/evaluation/baselines/([^/]+)/(positions\.f32|design\.u8|energy\.f32))", [this](const Request& req, Response& res) {
+    v1::DesignEvaluation e;
+    if (!Evaluation(req, res, &e)) return;
+    const v1::BaselineRecord* b = nullptr;
+    for (const v1::BaselineRecord& r : e.baselines())
+      if (r.name() == req.matches[2]) b = &r;
+    if (!b) return SetError(res, 404, ServiceCode::kNotFound, "the evaluation has no baseline '" + std::string(req.matches[2]) + "'");
+    if (req.matches[3] == "positions.f32")
+      return res.set_content(LittleEndianBytes(std::vector<float>(b->positions().begin(), b->positions().end())), "application/octet-stream");
+    if (req.matches[3] == "design.u8") return res.set_content(b->design(), "application/octet-stream");
+    v1::GetIterationResponse it;
+    if (EvaluatedIteration(req, res, e, &it)) SetEnergyPerArea(res, it.garment(), b->design(), b->energy_density_pa());
   });
 }
 
-void HttpGateway::Impl::CreateJob(const httplib::Request& req, httplib::Response& res) {
+void HttpGateway::Impl::DesignFileRoutes() {
+  server->Get(R"(/v1/jobs/([^/:]+)/design-file)", [this](const Request& req, Response& res) {
+    int64_t id = 0;
+    std::string bytes;
+    if (!JobId(req, res, &id) || !Answered(res, service->GetDesignFile(CallerOf(req), id, &bytes))) return;
+    res.set_header("Content-Disposition", "attachment; filename=\"job-" + std::to_string(id) + ".h5\"");
+    res.set_content(bytes, "application/x-hdf5");
+  });
+}
+
+void HttpGateway::Impl::CreateJob(const Request& req, Response& res) {
   const std::string type = req.get_header_value("Content-Type");
   v1::CreateJobRequest r;
   if (type.rfind("application/json", 0) == 0) {
-    if (ServiceStatus st = FromJson(req.body, "the request body", r.mutable_spec()); !st.ok()) return SetError(res, st);
+    if (!Answered(res, FromJson(req.body, "the request body", r.mutable_spec()))) return;
   } else if (req.is_multipart_form_data()) {
-    if (req.has_file("spec"))
-      if (ServiceStatus st = FromJson(req.get_file_value("spec").content, "part 'spec'", r.mutable_spec()); !st.ok()) return SetError(res, st);
+    if (req.has_file("spec") && !Answered(res, FromJson(req.get_file_value("spec").content, "part 'spec'", r.mutable_spec()))) return;
     if (!req.has_file("scene"))
       return SetError(res, 400, ServiceCode::kInvalidArgument, "multipart upload: the part 'scene' (the scene file) is missing");
     const httplib::MultipartFormData scene_part = req.get_file_value("scene");
@@ -506,12 +415,10 @@ void HttpGateway::Impl::CreateJob(const httplib::Request& req, httplib::Response
                     "POST /v1/jobs takes application/json (a JobSpec) or multipart/form-data (scene and files), not '" + type + "'");
   }
   v1::Job job;
-  if (ServiceStatus st = service->CreateJob(CallerOf(req), r, &job); !st.ok()) return SetError(res, st);
-  res.status = 200;
-  SetMessage(res, job);
+  if (Answered(res, service->CreateJob(CallerOf(req), r, &job))) SetMessage(res, job);
 }
 
-void HttpGateway::Impl::Watch(const httplib::Request& req, httplib::Response& res) {
+void HttpGateway::Impl::Watch(const Request& req, Response& res) {
   int64_t id = 0;
   if (!JobId(req, res, &id)) return;
   v1::WatchJobRequest r;
@@ -527,17 +434,14 @@ void HttpGateway::Impl::Watch(const httplib::Request& req, httplib::Response& re
   }
   r.set_from_iteration(static_cast<int>(std::min<long long>(from, 1 << 30)));
   const bool metrics_only = req.get_param_value("view") == "metrics";
-  // An unknown job, or one watched by as many as the limit, is an error response, not an empty stream.
-  if (ServiceStatus st = service->CanWatch(CallerOf(req), id); !st.ok()) return SetError(res, st);
-  if (watchers.fetch_add(1) >= options.max_watchers) {
-    --watchers;
-    return SetError(res, 429, ServiceCode::kResourceExhausted,
-                    "the server has its limit of " + std::to_string(options.max_watchers) + " open watches (--max-watchers); try again later");
-  }
+  // An unknown job, one watched by as many as the limit, or no thread left for one more watch is an
+  // error response, not an empty stream. The place is held while the response lives.
+  WatchPlace place;
+  if (!Answered(res, service->CanWatch(CallerOf(req), id)) || !Answered(res, service->TakeWatchPlace(&place))) return;
 
   res.set_header("Cache-Control", "no-cache");
   res.set_header("X-Accel-Buffering", "no");
-  res.set_chunked_content_provider("text/event-stream", [this, r, metrics_only, caller = CallerOf(req)](size_t, httplib::DataSink& sink) {
+  res.set_chunked_content_provider("text/event-stream", [this, r, metrics_only, caller = CallerOf(req), place](size_t, httplib::DataSink& sink) {
     Clock::time_point last_write = Clock::now();
     bool gone = false;
     auto send = [&](const std::string& text) {
@@ -562,29 +466,35 @@ void HttpGateway::Impl::Watch(const httplib::Request& req, httplib::Response& re
         });
     // A refusal after the check above (the limit reached meanwhile) ends the stream with its reason.
     if (!st.ok() && st.code != ServiceCode::kCancelled)
-      send("event: error\ndata: {\"status\": \"" + std::string(ServiceCodeName(st.code)) + "\", \"message\": \"" + JsonEscape(st.message) + "\"}\n\n");
+      send("event: error\ndata: {\"status\": \"" + std::string(ServiceCodeName(st.code)) + "\", \"message\": " + JsonString(st.message) + "}\n\n");
     sink.done();
     return true;
-  }, [this](bool) { --watchers; });
+  });
 }
 
-Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService* service, const HttpOptions& options) {
+Status HttpGateway::CheckOptions(const HttpOptions& options, bool tokens) {
   const size_t colon = options.address.rfind(':');
   long long port = 0;
   if (colon == std::string::npos || !ParseInt(options.address.substr(colon + 1), 0, &port) || port > 65535)
     return Status::Error("--http " + options.address + ": expected HOST:PORT");
   if (!options.web_dir.empty() && !std::filesystem::is_regular_file(std::filesystem::path(options.web_dir) / "index.html"))
     return Status::Error("web page folder " + options.web_dir + " has no index.html");
+  const bool tls = !options.tls_cert.empty() || !options.tls_key.empty();
+  if (tls && (options.tls_cert.empty() || options.tls_key.empty())) return Status::Error("HTTPS needs both --tls-cert and --tls-key");
+  return CheckExposure("--http", options.address, tls, tokens, options.insecure);
+}
+
+Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService& service, const HttpOptions& options) {
+  KGD_RETURN_IF_ERROR(CheckOptions(options, service.options().tokens.enabled()));
+  const size_t colon = options.address.rfind(':');
+  const int port = std::atoi(options.address.c_str() + colon + 1);
   auto g = std::unique_ptr<HttpGateway>(new HttpGateway);
   g->impl_ = std::make_unique<Impl>();
   Impl& m = *g->impl_;
-  m.service = service;
+  m.service = &service;
   m.options = options;
   m.host = options.address.substr(0, colon);
-  const bool tls = !options.tls_cert.empty() || !options.tls_key.empty();
-  if (tls && (options.tls_cert.empty() || options.tls_key.empty())) return Status::Error("HTTPS needs both --tls-cert and --tls-key");
-  KGD_RETURN_IF_ERROR(CheckExposure("--http", options.address, tls, service->options().tokens.enabled(), options.insecure));
-  if (tls) {
+  if (!options.tls_cert.empty()) {
     for (const auto& [path, what] : {std::pair{options.tls_cert, "certificate (--tls-cert)"}, std::pair{options.tls_key, "private key (--tls-key)"}})
       if (Result<std::string> pem = ReadPemFile(path, what); !pem.ok()) return pem.status();
     auto ssl = std::make_unique<httplib::SSLServer>(options.tls_cert.c_str(), options.tls_key.c_str());
@@ -594,13 +504,15 @@ Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService* service, con
     m.server = std::make_unique<httplib::Server>();
   }
   httplib::Server& http = *m.server;
-  // Each watch holds a thread for its whole life; the other requests keep threads of their own.
-  http.new_task_queue = [n = static_cast<size_t>(std::max(options.max_watchers, 0) + 16)] { return new httplib::ThreadPool(n); };
+  // Each watch holds a thread for its whole life (as many as the service gives places to); the other
+  // requests keep threads of their own.
+  const int held = service.options().limits.max_held_watches;
+  http.new_task_queue = [n = static_cast<size_t>(std::max(held, 0) + 16)] { return new httplib::ThreadPool(n); };
   // Debian's cpp-httplib compresses with Brotli at its slowest quality whenever a client accepts it
   // (1.3 s for three.js); gzip costs 2 % of that, so the gateway hides "br" from the library.
   // Every API request and /metrics is authenticated here first (the page's static files are public).
-  http.set_pre_routing_handler([&m](const httplib::Request& req, httplib::Response& res) {
-    auto& headers = const_cast<httplib::Request&>(req).headers;  // the library's own, non-const Request
+  http.set_pre_routing_handler([&m](const Request& req, Response& res) {
+    auto& headers = const_cast<Request&>(req).headers;  // the library's own, non-const Request
     auto it = headers.find("Accept-Encoding");
     if (it != headers.end() && it->second.find("br") != std::string::npos) it->second = it->second.find("gzip") != std::string::npos ? "gzip" : "";
     if (req.path.rfind("/v1/", 0) != 0 && req.path != "/metrics") return httplib::Server::HandlerResponse::Unhandled;
@@ -617,7 +529,7 @@ Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService* service, con
     return httplib::Server::HandlerResponse::Unhandled;
   });
   // The page's libraries change only with client/web/package-lock.json.
-  http.set_file_request_handler([](const httplib::Request& req, httplib::Response& res) {
+  http.set_file_request_handler([](const Request& req, Response& res) {
     res.set_header("Cache-Control", req.path.rfind("/vendor/", 0) == 0 ? "public, max-age=86400" : "no-cache");
   });
   http.set_payload_max_length(options.max_upload_bytes);
@@ -631,7 +543,7 @@ Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService* service, con
     // The page's libraries, installed by npm from client/web/package-lock.json.
     http.set_mount_point("/vendor", (std::filesystem::path(options.web_dir) / "node_modules").string());
   }
-  http.set_error_handler(httplib::Server::HandlerWithResponse([](const httplib::Request& req, httplib::Response& res) {
+  http.set_error_handler(httplib::Server::HandlerWithResponse([](const Request& req, Response& res) {
     if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
     if (res.status == 413)
       SetError(res, 413, ServiceCode::kResourceExhausted, "the request body is larger than the server accepts (--max-upload-mb)");
@@ -643,7 +555,7 @@ Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService* service, con
       SetError(res, res.status, ServiceCode::kInternal, "HTTP " + std::to_string(res.status) + " on " + req.method + " " + req.path);
     return httplib::Server::HandlerResponse::Handled;
   }));
-  http.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+  http.set_exception_handler([](const Request&, Response& res, std::exception_ptr ep) {
     std::string what = "unknown error";
     try {
       std::rethrow_exception(ep);
@@ -653,16 +565,30 @@ Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService* service, con
     }
     SetError(res, 500, ServiceCode::kInternal, what);
   });
-  m.Routes();
+  m.ServiceRoutes();
+  m.JobRoutes();
+  m.IterationRoutes();
+  m.CutFileRoutes();
+  m.GarmentRoutes();
+  m.EvaluationRoutes();
+  m.DesignFileRoutes();
+  // The library's own options (address reuse), and the socket kept to widen its listen queue below.
+  http.set_socket_options([&m](int sock) {
+    httplib::default_socket_options(sock);
+    m.listening_socket = sock;
+  });
   if (port == 0) {
     m.port = http.bind_to_any_port(m.host);
     if (m.port <= 0) return Status::Error("--http " + options.address + ": cannot bind a port on " + m.host);
   } else {
-    if (!http.bind_to_port(m.host, static_cast<int>(port)))
-      return Status::Error("--http " + options.address + ": cannot bind (in use, or not an address of this machine?)");
-    m.port = static_cast<int>(port);
+    if (!http.bind_to_port(m.host, port)) return Status::Error("--http " + options.address + ": cannot bind (in use, or not an address of this machine?)");
+    m.port = port;
   }
-  WidenListenBacklog(m.port);
+  // Debian's cpp-httplib listens with a backlog of 5 (compiled in): a burst of connections, such as a
+  // hundred watchers opening at once, overflows it and the kernel drops SYNs, which clients retry
+  // seconds later or give up on. Listening again on the bound socket widens the queue (Linux keeps
+  // the socket and takes the new backlog).
+  if (m.listening_socket >= 0) ::listen(m.listening_socket, SOMAXCONN);
   m.listener = std::thread([&m] { m.server->listen_after_bind(); });
   return g;
 }

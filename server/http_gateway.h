@@ -23,20 +23,21 @@
 //   GET  /v1/jobs/{id}/iterations/{n}/positions.f32      V x 3 little-endian float32 (m)
 //   GET  /v1/jobs/{id}/iterations/{n}/energy.f32         F float32: strain energy per rest area (J/m^2)
 //   GET  /v1/jobs/{id}/iterations/{n}/design.u8          F bytes, 1 = reinforced
-//   GET  /v1/jobs/{id}/iterations/{n}/design.ply         the iteration as binary PLY (download)
+//   GET  /v1/jobs/{id}/iterations/{n}/design.ply         the iteration as binary PLY (download; core/mesh/mesh_io.h, WriteGarmentPly)
 //   GET  /v1/jobs/{id}/garment/faces.u32                 F x 3 little-endian uint32
 //   GET  /v1/jobs/{id}/garment/rest.f32                  V x 3 float32, the rest shape (m)
 //   GET  /v1/jobs/{id}/body/vertices.f32, faces.u32      the body in the deformed pose (404: none)
 //   GET  /v1/jobs/{id}/design-file                       the job's HDF5 design file, once it has ended
 //   GET  /v1/jobs/{id}/evaluation                        DesignEvaluation, its arrays left out (404: none yet)
-//   GET  /v1/jobs/{id}/evaluation/frames/{k}/{positions,body,energy}.f32   frame k (1..): V x 3 float32 (m),
-//        the body's vertices (float32, m), F float32 (J/m^2)
+//   GET  /v1/jobs/{id}/evaluation/frames/{k}/{positions,body,energy,pressure}.f32   frame k (1..): V x 3 float32 (m),
+//        the body's vertices (float32, m), F float32 (J/m^2), the skin pressure per body vertex (float32, Pa)
 //   GET  /v1/jobs/{id}/evaluation/baselines/{line,x}/{positions.f32,design.u8,energy.f32}   a baseline's arrays
 //   GET  /v1/jobs/{id}/iterations/{n}/cut/{pattern,patches}.{svg,dxf,png}, report.json   cut files (docs/FABRICATION.md;
 //        ?minFeatureMm=&seamAllowanceMm=&sheetWidthMm=&mirror=false), made by geometry alone
 //   GET  /                                               the web page (static files of web_dir)
 //
-// The handlers only translate; they never simulate.
+// The handlers only translate (path and query to request, status to HTTP status, messages to JSON,
+// arrays to bytes); what they serve comes from JobService and server/job_results.h.
 #pragma once
 
 #include <memory>
@@ -52,15 +53,19 @@ struct HttpOptions {
   std::string web_dir;                     // the page's static files (client/web); empty: API only
   size_t max_upload_bytes = 64 << 20;      // larger request bodies get 413 RESOURCE_EXHAUSTED
   double keepalive_s = 10;                 // an SSE comment this often keeps idle watches alive
-  int max_watchers = 200;                  // open :watch streams; one more gets 429 RESOURCE_EXHAUSTED
   std::string tls_cert, tls_key;           // PEM files: serve HTTPS; empty: plain HTTP
   bool insecure = false;                   // allow a non-loopback address without TLS and tokens
 };
 
+// Open :watch streams are bounded by the service (ServiceLimits::max_held_watches, --max-watchers:
+// one more gets 429 RESOURCE_EXHAUSTED); the door keeps as many threads for them.
 class HttpGateway {
  public:
+  // What Start would refuse before binding: an address that is not HOST:PORT, a web folder without
+  // index.html, half a TLS pair, a non-loopback address without both TLS and tokens (unless insecure).
+  static Status CheckOptions(const HttpOptions& options, bool tokens);
   // Binds the address and starts serving `service` (which must outlive the gateway).
-  static Result<std::unique_ptr<HttpGateway>> Start(JobService* service, const HttpOptions& options);
+  static Result<std::unique_ptr<HttpGateway>> Start(JobService& service, const HttpOptions& options);
   ~HttpGateway();  // Stop()
 
   int port() const;

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <future>
 #include <map>
 #include <mutex>
@@ -160,6 +161,7 @@ struct JobService::Impl {
     double tokens = 0, time = -1;
   };
   std::map<std::string, Bucket> creations;
+  int held_watches = 0;  // places taken of limits.max_held_watches
 
   // RESOURCE_EXHAUSTED when job `id` has as many open watches as the limit; call under limits_mu.
   ServiceStatus WatchLimit(int64_t id) {
@@ -531,6 +533,21 @@ ServiceStatus JobService::CanWatch(const Caller& caller, int64_t id) {
   return m.WatchLimit(id);
 }
 
+ServiceStatus JobService::TakeWatchPlace(WatchPlace* place) {
+  Impl& m = *impl_;
+  const int limit = m.options.limits.max_held_watches;
+  std::lock_guard lock(m.limits_mu);
+  if (limit > 0 && m.held_watches >= limit)
+    return Error(ServiceCode::kResourceExhausted,
+                 "the server has its limit of " + std::to_string(limit) + " open watches (--max-watchers); try again later");
+  ++m.held_watches;
+  *place = WatchPlace(nullptr, [&m](const void*) {
+    std::lock_guard lock(m.limits_mu);
+    --m.held_watches;
+  });
+  return ServiceStatus::Ok();
+}
+
 ServiceStatus JobService::WatchJob(const Caller& caller, const v1::WatchJobRequest& req, const std::function<bool(const v1::WatchJobEvent&)>& write,
                                    const std::function<bool()>& cancelled) {
   Impl& m = *impl_;
@@ -616,6 +633,35 @@ ServiceStatus JobService::GetEvaluation(const Caller& caller, int64_t id, v1::De
   Result<DesignEvaluation> e = ReadDesignEvaluation(path);
   if (!e.ok()) return Internal(e.status());
   *out = EvaluationToProto(*e);
+  return ServiceStatus::Ok();
+}
+
+ServiceStatus JobService::GetGarment(const Caller& caller, int64_t id, v1::Garment* out) {
+  Impl& m = *impl_;
+  v1::Job job;
+  if (ServiceStatus st = m.FindJob(caller, id, &job); !st.ok()) return st;
+  if (job.iterations() == 0)
+    return Error(ServiceCode::kNotFound, "job " + std::to_string(id) + " has no garment yet (it has no iteration; watch it until the first arrives)");
+  std::lock_guard lock(m.commit_mu);
+  Result<DesignFile> f = ReadDesignFile(m.FilePath(id), {.arrays = false});
+  if (!f.ok()) return Internal(f.status());
+  *out = GarmentToProto(f->header);
+  return ServiceStatus::Ok();
+}
+
+ServiceStatus JobService::GetDesignFile(const Caller& caller, int64_t id, std::string* bytes) {
+  Impl& m = *impl_;
+  v1::Job job;
+  if (ServiceStatus st = m.FindJob(caller, id, &job); !st.ok()) return st;
+  if (job.state() == v1::QUEUED || job.state() == v1::RUNNING)
+    return Error(ServiceCode::kFailedPrecondition, "job " + std::to_string(id) + " is " + v1::JobState_Name(job.state()) +
+                                                       ": its design file is still being written; download it once the job has ended (an iteration's PLY is ready now)");
+  std::ifstream in(m.FilePath(id), std::ios::binary);
+  if (job.data_file().empty() || !in)
+    return Error(ServiceCode::kNotFound, "job " + std::to_string(id) + " has no design file (it stored no iteration)");
+  std::ostringstream contents;
+  contents << in.rdbuf();
+  *bytes = std::move(contents).str();
   return ServiceStatus::Ok();
 }
 

@@ -67,7 +67,13 @@ struct ServiceLimits {
   int max_watchers_per_job = 64;           // open watches of one job, gRPC and HTTP (--max-watchers-per-job)
   int64_t max_design_file_bytes = int64_t(4) << 30;  // a job's design file; beyond it the job fails
   double max_jobs_per_minute = 30;         // job creations per user per minute, burst of as many (--max-jobs-per-minute)
+  // Open watches on a door that holds one of its threads for each (HTTP Server-Sent Events), all jobs
+  // together (--max-watchers); such a door sizes its threads by it.
+  int max_held_watches = 200;
 };
+
+// A place among ServiceLimits::max_held_watches, given back when the last copy is destroyed.
+using WatchPlace = std::shared_ptr<const void>;
 
 struct JobServiceOptions {
   std::string data_dir;  // created if missing
@@ -108,6 +114,11 @@ class JobService {
   ServiceStatus GetIteration(const Caller& caller, const v1::GetIterationRequest& request, v1::GetIterationResponse* response);
   // The finished design over the motion and beside the baselines (DIR/jobs/job-N.evaluation.h5).
   ServiceStatus GetEvaluation(const Caller& caller, int64_t id, v1::DesignEvaluation* evaluation);
+  // The job's garment (rest shape, faces, body, materials); NOT_FOUND while it has no iteration.
+  ServiceStatus GetGarment(const Caller& caller, int64_t id, v1::Garment* garment);
+  // The bytes of the job's design file (DIR/jobs/job-N.h5) once it has ended: FAILED_PRECONDITION while
+  // it is queued or running, NOT_FOUND when it stored no iteration.
+  ServiceStatus GetDesignFile(const Caller& caller, int64_t id, std::string* bytes);
   // Cut files of one stored iteration, by geometry alone (job/fabrication_export.h, ExportGeometry).
   // `progress` (optional) is called as each stage of a computed export starts.
   ServiceStatus ExportDesign(const Caller& caller, const v1::ExportDesignRequest& request, v1::ExportDesignResponse* response,
@@ -117,6 +128,9 @@ class JobService {
   // OK) or `cancelled` returns true / the service stops (CANCELLED).
   // What WatchJob would refuse at once: an unknown job, one watched by as many as the limit.
   ServiceStatus CanWatch(const Caller& caller, int64_t id);
+  // A place for a watch that holds a door's thread (take it after CanWatch); RESOURCE_EXHAUSTED
+  // naming --max-watchers when all are taken.
+  ServiceStatus TakeWatchPlace(WatchPlace* place);
   ServiceStatus WatchJob(const Caller& caller, const v1::WatchJobRequest& request, const std::function<bool(const v1::WatchJobEvent&)>& write,
                          const std::function<bool()>& cancelled);
 

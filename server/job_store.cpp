@@ -115,12 +115,14 @@ class Stmt {
   std::string error_;
 };
 
-// IterationMetrics fields other than `iteration`, in declaration order: the metric columns.
+// IterationMetrics' single-valued fields other than `iteration`, in declaration order: the metric
+// columns (a list, such as the per-motion figures, has no column).
 std::vector<const FieldDescriptor*> MetricFields() {
   std::vector<const FieldDescriptor*> out;
   const auto* d = v1::IterationMetrics::descriptor();
   for (int i = 0; i < d->field_count(); ++i)
-    if (d->field(i)->name() != "iteration") out.push_back(d->field(i));
+    if (d->field(i)->name() != "iteration" && !d->field(i)->is_repeated() && d->field(i)->cpp_type() != FieldDescriptor::CPPTYPE_MESSAGE)
+      out.push_back(d->field(i));
   return out;
 }
 

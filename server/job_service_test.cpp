@@ -1,0 +1,456 @@
+// The job service in-process, with fake workers that speak RunJob through callbacks: a lost worker's
+// lease expires and its job resumes on the next from the last acknowledged iteration; a reopened data
+// folder queues its leased jobs again with every acknowledged iteration; watchers get the stored
+// iterations, each new one and the end; each limit is hit and named; the doors' results (garment,
+// design file, energy per area, PLY) come from the service.
+#include "server/job_service.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <filesystem>
+#include <mutex>
+#include <thread>
+
+#include "core/mesh/mesh_io.h"
+#include "core/scene/shapes.h"
+#include "proto/records.h"
+#include "server/job_results.h"
+
+namespace kgd::server {
+namespace {
+namespace fs = std::filesystem;
+
+const Caller kAlice{"alice", Role::kUser};
+const Caller kBob{"bob", Role::kUser};
+const Caller kWorker{"w", Role::kWorker};
+
+std::string FreshDir(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("kgd_job_service_test_" + name + "_" + std::to_string(getpid()));
+  fs::remove_all(p);
+  return p.string();
+}
+
+JobServiceOptions Options(const std::string& dir) {
+  JobServiceOptions o;
+  o.data_dir = dir;
+  o.lease_duration_s = 30;
+  o.quiet = true;
+  return o;
+}
+
+std::unique_ptr<JobService> Open(const JobServiceOptions& o) {
+  Result<std::unique_ptr<JobService>> s = JobService::Open(o);
+  EXPECT_TRUE(s.ok()) << s.message();
+  return s.ok() ? std::move(s).value() : nullptr;
+}
+
+v1::CreateJobRequest SleeveJob(int max_iterations = 10) {
+  v1::CreateJobRequest r;
+  r.mutable_spec()->set_builtin_scene("sleeve_on_limb");
+  r.mutable_spec()->mutable_optimizer()->set_max_iterations(max_iterations);
+  return r;
+}
+
+// A small garment as a worker describes it: a 2 x 2 cm sheet, cloth 1 mm and reinforcement 2 mm thick.
+DesignFileHeader Garment() {
+  DesignFileHeader h;
+  h.scene = "sleeve_on_limb";
+  h.garment = RectangleSheet(0.02, 0.02, 0.01);
+  h.initial = h.garment.vertices;
+  h.rest_area_m2 = Eigen::VectorXd::Constant(h.garment.faces.rows(), 5e-5);
+  h.cloth_thickness_m = 1e-3;
+  h.reinforced_thickness_m = 2e-3;
+  return h;
+}
+
+// Iteration k of a made-up run on Garment(): every array differs per iteration and per entry.
+BesoIteration Iteration(int k) {
+  const DesignFileHeader h = Garment();
+  const int nf = static_cast<int>(h.garment.faces.rows());
+  BesoIteration it;
+  it.iteration = k;
+  it.energy_J = 1.0 / (k + 2);
+  it.area_fraction = 1.0 - 0.1 * k;
+  it.design.assign(nf, 1);
+  for (int f = 0; f < std::min(k, nf); ++f) it.design[f] = 0;
+  it.positions = h.garment.vertices;
+  it.positions.col(2).array() += 1e-3 * (k + 1);
+  it.energy_density_Pa = Eigen::VectorXd::LinSpaced(nf, 10.0 + k, 20.0 + k);
+  if (k > 0) it.sensitivity = Eigen::VectorXd::LinSpaced(nf, -1.0, 1.0 * k);
+  return it;
+}
+
+v1::WorkerMessage Start(const std::string& lease) {
+  v1::WorkerMessage m;
+  m.set_lease_id(lease);
+  v1::JobStart* s = m.mutable_start();
+  const DesignFileHeader h = Garment();
+  *s->mutable_garment() = GarmentToProto(h);
+  s->set_scene(h.scene);
+  s->set_settings_json(BesoSettingsToJson(h.settings));
+  return m;
+}
+v1::WorkerMessage Report(const std::string& lease, int k) {
+  v1::WorkerMessage m;
+  m.set_lease_id(lease);
+  *m.mutable_iteration() = RecordToProto(Iteration(k));
+  return m;
+}
+v1::WorkerMessage Complete(const std::string& lease) {
+  v1::WorkerMessage m;
+  m.set_lease_id(lease);
+  m.set_complete(true);
+  return m;
+}
+
+// One worker's RunJob stream: what the test sends, and each reply, in order.
+class FakeStream {
+ public:
+  explicit FakeStream(JobService& service) {
+    thread_ = std::thread([this, &service] {
+      service.RunJob(
+          kWorker,
+          [this](v1::WorkerMessage* m) {
+            std::unique_lock lock(mu_);
+            cv_.wait(lock, [&] { return !in_.empty() || closed_; });
+            if (in_.empty()) return false;
+            *m = std::move(in_.front());
+            in_.pop_front();
+            return true;
+          },
+          [this](const v1::ServerMessage& m) {
+            std::lock_guard lock(mu_);
+            out_.push_back(m);
+            cv_.notify_all();
+            return true;
+          },
+          [] { return false; });
+      std::lock_guard lock(mu_);
+      ended_ = true;
+      cv_.notify_all();
+    });
+  }
+  ~FakeStream() {
+    Close();
+    thread_.join();
+  }
+  // Sends `m` and waits for its reply (none after complete, fail or release: then the stream's end).
+  v1::ServerMessage Send(v1::WorkerMessage m) {
+    std::unique_lock lock(mu_);
+    const size_t replies = out_.size();
+    in_.push_back(std::move(m));
+    cv_.notify_all();
+    cv_.wait(lock, [&] { return out_.size() > replies || ended_; });
+    return out_.size() > replies ? out_.back() : v1::ServerMessage();
+  }
+  void Close() {
+    std::lock_guard lock(mu_);
+    closed_ = true;
+    cv_.notify_all();
+  }
+  void WaitEnded() {
+    std::unique_lock lock(mu_);
+    cv_.wait(lock, [&] { return ended_; });
+  }
+
+ private:
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<v1::WorkerMessage> in_;
+  std::vector<v1::ServerMessage> out_;
+  bool closed_ = false, ended_ = false;
+  std::thread thread_;
+};
+
+v1::LeaseJobResponse Lease(JobService& s, const std::string& worker = "w") {
+  v1::LeaseJobRequest r;
+  r.set_worker(worker);
+  r.set_wait_s(5);
+  v1::LeaseJobResponse out;
+  EXPECT_TRUE(s.LeaseJob(kWorker, r, &out, [] { return false; }).ok());
+  return out;
+}
+
+v1::Job Job(JobService& s, int64_t id) {
+  v1::Job j;
+  EXPECT_TRUE(s.GetJob(kAlice, id, &j).ok());
+  return j;
+}
+
+bool WaitFor(const std::function<bool()>& done, double timeout_s) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (std::chrono::steady_clock::now() < end) {
+    if (done()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return done();
+}
+
+// Iteration `k` as the lease or a GetIteration carries it equals the one reported, bit for bit.
+void ExpectRecordIs(const v1::IterationRecord& record, int k) {
+  Result<BesoIteration> got = RecordFromProto(record);
+  ASSERT_TRUE(got.ok()) << got.message();
+  const BesoIteration want = Iteration(k);
+  EXPECT_EQ(got->iteration, k);
+  EXPECT_EQ(got->design, want.design);
+  EXPECT_EQ(got->positions, want.positions);
+  EXPECT_EQ(got->energy_density_Pa, want.energy_density_Pa);
+  EXPECT_EQ(got->sensitivity, want.sensitivity);
+}
+
+TEST(JobService, ASilentWorkersLeaseExpiresAndTheNextResumesFromTheLastAcknowledgedIteration) {
+  JobServiceOptions o = Options(FreshDir("lease"));
+  o.lease_duration_s = 0.3;
+  auto s = Open(o);
+  ASSERT_TRUE(s);
+  v1::Job job;
+  ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(), &job).ok());
+  const v1::LeaseJobResponse first = Lease(*s, "a");
+  ASSERT_TRUE(first.leased());
+  EXPECT_EQ(first.job_id(), job.id());
+  EXPECT_EQ(first.attempt(), 1);
+  EXPECT_EQ(first.history_size(), 0);
+  FakeStream a(*s);
+  EXPECT_EQ(a.Send(Start(first.lease_id())).error(), "");
+  for (int k = 0; k < 2; ++k) EXPECT_EQ(a.Send(Report(first.lease_id(), k)).acknowledged_iterations(), k + 1);
+  EXPECT_EQ(Job(*s, job.id()).state(), v1::RUNNING);
+  // The worker goes silent, its stream open: after the lease's 0.3 s the job is queued again.
+  ASSERT_TRUE(WaitFor([&] { return Job(*s, job.id()).state() == v1::QUEUED; }, 10));
+  EXPECT_EQ(Job(*s, job.id()).iterations(), 2);
+  const v1::LeaseJobResponse second = Lease(*s, "b");
+  ASSERT_TRUE(second.leased());
+  EXPECT_NE(second.lease_id(), first.lease_id());
+  EXPECT_EQ(second.attempt(), 2);
+  ASSERT_EQ(second.history_size(), 2);
+  EXPECT_EQ(second.history(1).iteration(), 1);
+  ExpectRecordIs(second.last(), 1);
+  // The first worker's late report is refused and changes nothing.
+  const v1::ServerMessage late = a.Send(Report(first.lease_id(), 2));
+  EXPECT_NE(late.error().find("no longer held"), std::string::npos) << late.error();
+  a.WaitEnded();
+  EXPECT_EQ(Job(*s, job.id()).iterations(), 2);
+  EXPECT_EQ(Job(*s, job.id()).state(), v1::RUNNING);
+}
+
+TEST(JobService, AReopenedDataFolderQueuesItsLeasedJobsAgainWithEveryAcknowledgedIteration) {
+  const JobServiceOptions o = Options(FreshDir("reopen"));
+  int64_t id = 0;
+  {
+    auto s = Open(o);
+    ASSERT_TRUE(s);
+    v1::Job job;
+    ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(), &job).ok());
+    id = job.id();
+    const v1::LeaseJobResponse lease = Lease(*s);
+    {
+      FakeStream w(*s);
+      w.Send(Start(lease.lease_id()));
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(w.Send(Report(lease.lease_id(), k)).acknowledged_iterations(), k + 1);
+    }  // the stream breaks: the job is queued again
+    EXPECT_EQ(Job(*s, id).state(), v1::QUEUED);
+    // Leased again, and the service closes with the lease held (as a killed server would leave it).
+    ASSERT_TRUE(Lease(*s).leased());
+    EXPECT_EQ(Job(*s, id).state(), v1::RUNNING);
+  }
+  auto s = Open(o);
+  ASSERT_TRUE(s);
+  const v1::Job job = Job(*s, id);
+  EXPECT_EQ(job.state(), v1::QUEUED);
+  EXPECT_EQ(job.iterations(), 3);
+  const v1::LeaseJobResponse lease = Lease(*s);
+  ASSERT_TRUE(lease.leased());
+  EXPECT_EQ(lease.attempt(), 3);
+  ASSERT_EQ(lease.history_size(), 3);
+  ExpectRecordIs(lease.last(), 2);
+  v1::GetIterationRequest r;
+  r.set_id(id);
+  r.set_iteration(1);
+  v1::GetIterationResponse it;
+  ASSERT_TRUE(s->GetIteration(kAlice, r, &it).ok());
+  ExpectRecordIs(it.record(), 1);
+  // The resumed lease continues the same file: iteration 3 follows, and the job ends.
+  FakeStream w(*s);
+  EXPECT_EQ(w.Send(Start(lease.lease_id())).acknowledged_iterations(), 3);
+  EXPECT_EQ(w.Send(Report(lease.lease_id(), 3)).acknowledged_iterations(), 4);
+  w.Send(Complete(lease.lease_id()));
+  w.WaitEnded();
+  EXPECT_EQ(Job(*s, id).state(), v1::SUCCEEDED);
+  EXPECT_EQ(Job(*s, id).iterations(), 4);
+}
+
+// Every event of one watch, from its own thread, until the job ends or `stop`; the status it ended with.
+struct Watch {
+  std::vector<v1::WatchJobEvent> events;
+  ServiceStatus status;
+  std::atomic<bool> stop{false};
+  std::thread thread;
+
+  Watch(JobService& s, int64_t id, int from, const Caller& caller = kAlice) {
+    thread = std::thread([this, &s, id, from, caller] {
+      v1::WatchJobRequest r;
+      r.set_id(id);
+      r.set_from_iteration(from);
+      status = s.WatchJob(caller, r, [this](const v1::WatchJobEvent& e) { return events.push_back(e), true; }, [this] { return stop.load(); });
+    });
+  }
+  ~Watch() {
+    stop = true;
+    if (thread.joinable()) thread.join();
+  }
+  std::vector<int> Iterations() const {
+    std::vector<int> out;
+    for (const auto& e : events)
+      if (e.has_iteration()) out.push_back(e.iteration().metrics().iteration());
+    return out;
+  }
+};
+
+// The open watches the service counts (kgd_watchers).
+bool OpenWatchesAre(JobService& s, int n) { return s.MetricsText().find("kgd_watchers " + std::to_string(n) + "\n") != std::string::npos; }
+
+TEST(JobService, WatchersGetTheStoredIterationsThenEachNewOneAndTheEnd) {
+  auto s = Open(Options(FreshDir("watch")));
+  ASSERT_TRUE(s);
+  v1::Job job;
+  ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(), &job).ok());
+  const v1::LeaseJobResponse lease = Lease(*s);
+  FakeStream w(*s);
+  w.Send(Start(lease.lease_id()));
+  for (int k = 0; k < 2; ++k) w.Send(Report(lease.lease_id(), k));
+  Watch all(*s, job.id(), 0), late(*s, job.id(), 1);
+  ASSERT_TRUE(WaitFor([&] { return OpenWatchesAre(*s, 2); }, 10)) << s->MetricsText();
+  for (int k = 2; k < 4; ++k) w.Send(Report(lease.lease_id(), k));
+  w.Send(Complete(lease.lease_id()));
+  all.thread.join();
+  late.thread.join();
+  EXPECT_TRUE(all.status.ok()) << all.status.message;
+  EXPECT_TRUE(late.status.ok()) << late.status.message;
+  EXPECT_EQ(all.Iterations(), (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_EQ(late.Iterations(), (std::vector<int>{1, 2, 3}));
+  for (const Watch* watch : {&all, &late}) {
+    ASSERT_FALSE(watch->events.empty());
+    EXPECT_TRUE(watch->events.front().has_job());
+    ASSERT_TRUE(watch->events.back().has_job());
+    EXPECT_EQ(watch->events.back().job().state(), v1::SUCCEEDED);
+  }
+  // The design of each iteration as reported.
+  for (const auto& e : all.events)
+    if (e.has_iteration()) {
+      const std::vector<uint8_t> design = Iteration(e.iteration().metrics().iteration()).design;
+      EXPECT_EQ(e.iteration().design(), std::string(design.begin(), design.end()));
+    }
+  // Another user's watch is NOT_FOUND, the same as a job that does not exist.
+  v1::WatchJobRequest r;
+  r.set_id(job.id());
+  const ServiceStatus bob = s->WatchJob(kBob, r, [](const v1::WatchJobEvent&) { return true; }, [] { return false; });
+  EXPECT_EQ(bob.code, ServiceCode::kNotFound);
+  EXPECT_EQ(bob.message, "job " + std::to_string(job.id()) + " does not exist");
+}
+
+TEST(JobService, EachLimitIsHitAndNamed) {
+  JobServiceOptions o = Options(FreshDir("limits"));
+  o.limits.max_queued_per_user = 2;
+  o.limits.max_jobs_per_minute = 3;
+  o.limits.max_iterations = 20;
+  o.limits.max_watchers_per_job = 1;
+  o.limits.max_held_watches = 1;
+  auto s = Open(o);
+  ASSERT_TRUE(s);
+  auto refusal = [](const ServiceStatus& st, const std::string& flag) {
+    EXPECT_EQ(st.code, ServiceCode::kResourceExhausted) << st.message;
+    EXPECT_NE(st.message.find(flag), std::string::npos) << st.message;
+  };
+  v1::Job job;
+  refusal(s->CreateJob(kAlice, SleeveJob(21), &job), "--max-iterations");
+  ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(20), &job).ok());
+  ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(), &job).ok());
+  refusal(s->CreateJob(kAlice, SleeveJob(), &job), "--max-queued-per-user");
+  // A job that starts frees a place in the queue; the refusals took no creation from the bucket of three.
+  ASSERT_TRUE(Lease(*s).leased());
+  ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(), &job).ok());
+  ASSERT_TRUE(Lease(*s).leased());
+  refusal(s->CreateJob(kAlice, SleeveJob(), &job), "--max-jobs-per-minute");
+  // Another user has a queue and a bucket of its own.
+  ASSERT_TRUE(s->CreateJob(kBob, SleeveJob(), &job).ok());
+  // One watch of a job at a time.
+  const int64_t id = job.id();
+  {
+    Watch open(*s, id, 0, kBob);
+    ASSERT_TRUE(WaitFor([&] { return OpenWatchesAre(*s, 1); }, 10)) << s->MetricsText();
+    refusal(s->CanWatch(kBob, id), "--max-watchers-per-job");
+    v1::WatchJobRequest r;
+    r.set_id(id);
+    refusal(s->WatchJob(kBob, r, [](const v1::WatchJobEvent&) { return true; }, [] { return false; }), "--max-watchers-per-job");
+    open.stop = true;
+    open.thread.join();
+    EXPECT_EQ(open.status.code, ServiceCode::kCancelled);
+  }
+  EXPECT_TRUE(s->CanWatch(kBob, id).ok());
+  // Places for watches that hold a door's thread: one here; the second is refused until it is given back.
+  WatchPlace place;
+  ASSERT_TRUE(s->TakeWatchPlace(&place).ok());
+  WatchPlace second;
+  refusal(s->TakeWatchPlace(&second), "--max-watchers");
+  place.reset();
+  EXPECT_TRUE(s->TakeWatchPlace(&second).ok());
+}
+
+TEST(JobService, GarmentDesignFileEnergyPerAreaAndPlyComeFromTheStoredJob) {
+  auto s = Open(Options(FreshDir("results")));
+  ASSERT_TRUE(s);
+  v1::Job job;
+  ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(), &job).ok());
+  const std::string id = std::to_string(job.id());
+  v1::Garment garment;
+  ServiceStatus st = s->GetGarment(kAlice, job.id(), &garment);
+  EXPECT_EQ(st.code, ServiceCode::kNotFound);
+  EXPECT_EQ(st.message, "job " + id + " has no garment yet (it has no iteration; watch it until the first arrives)");
+  EXPECT_EQ(s->GetGarment(kBob, job.id(), &garment).message, "job " + id + " does not exist");
+  const v1::LeaseJobResponse lease = Lease(*s);
+  FakeStream w(*s);
+  w.Send(Start(lease.lease_id()));
+  for (int k = 0; k < 3; ++k) w.Send(Report(lease.lease_id(), k));
+  ASSERT_TRUE(s->GetGarment(kAlice, job.id(), &garment).ok());
+  EXPECT_EQ(garment.faces_size(), 3 * Garment().garment.faces.rows());
+  std::string bytes;
+  st = s->GetDesignFile(kAlice, job.id(), &bytes);
+  EXPECT_EQ(st.code, ServiceCode::kFailedPrecondition);
+  EXPECT_NE(st.message.find("job " + id + " is RUNNING: its design file is still being written"), std::string::npos) << st.message;
+  w.Send(Complete(lease.lease_id()));
+  w.WaitEnded();
+  ASSERT_TRUE(s->GetDesignFile(kAlice, job.id(), &bytes).ok());
+  EXPECT_EQ(bytes.substr(0, 4), "\x89HDF");
+  EXPECT_EQ(bytes.size(), fs::file_size(Job(*s, job.id()).data_file()));
+
+  // Energy per area: each face's density times its material's thickness.
+  v1::GetIterationRequest r;
+  r.set_id(job.id());
+  r.set_iteration(2);
+  r.set_with_garment(true);
+  v1::GetIterationResponse it;
+  ASSERT_TRUE(s->GetIteration(kAlice, r, &it).ok());
+  std::vector<float> e;
+  ASSERT_TRUE(EnergyPerArea(it.garment(), it.record().design(), it.record().energy_density_pa(), &e).ok());
+  const BesoIteration want = Iteration(2);
+  ASSERT_EQ(e.size(), want.design.size());
+  for (size_t f = 0; f < e.size(); ++f)
+    EXPECT_EQ(e[f], static_cast<float>(want.energy_density_Pa[f] * (want.design[f] ? 2e-3 : 1e-3))) << "face " << f;
+  v1::Garment old = it.garment();
+  old.set_cloth_thickness_m(0);
+  EXPECT_EQ(EnergyPerArea(old, it.record().design(), it.record().energy_density_pa(), &e).code, ServiceCode::kFailedPrecondition);
+  EXPECT_EQ(EnergyPerArea(it.garment(), "\1", it.record().energy_density_pa(), &e).code, ServiceCode::kInternal);
+
+  // The PLY: the iteration's positions and faces.
+  std::string ply;
+  ASSERT_TRUE(IterationPly(it, "job.ply", &ply).ok());
+  Result<TriMesh> mesh = ParseMesh(ply, "job.ply");
+  ASSERT_TRUE(mesh.ok()) << mesh.message();
+  EXPECT_EQ(mesh->vertices, want.positions);
+  EXPECT_EQ(mesh->faces, Garment().garment.faces);
+}
+
+}  // namespace
+}  // namespace kgd::server
