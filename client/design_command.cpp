@@ -332,6 +332,12 @@ int RunEvaluate(const std::string& path, int k, bool json) {
                              {"reinforced_density_J_per_m2", a[f].reinforced_density_J_per_m2},
                              {"full_reinforced_density_J_per_m2", b[f].reinforced_density_J_per_m2},
                              {"density_ratio", ratio}});
+      if (a[f].skin.pressure_Pa.size()) {
+        j["frames"].back()["peak_pressure_Pa"] = a[f].skin.peak_Pa;
+        j["frames"].back()["p95_pressure_Pa"] = a[f].skin.p95_Pa;
+        j["frames"].back()["full_peak_pressure_Pa"] = b[f].skin.peak_Pa;
+        j["frames"].back()["full_p95_pressure_Pa"] = b[f].skin.p95_Pa;
+      }
     } else {
       std::printf("%6zu %12.6g %12.6g %14.6g %14.6g %7.3f %9.3g %9.3g%s\n", f + 1, a[f].solve.energy_J, a[f].reinforced_energy_J,
                   a[f].reinforced_density_J_per_m2, b[f].reinforced_density_J_per_m2, ratio, 1e-3 * a[f].skin.peak_Pa,
@@ -346,12 +352,6 @@ int RunBaselines(const std::string& path, int k, double angle_deg, bool angle_gi
   Result<StoredDesign> sd = LoadStoredDesign(path, k);
   if (!sd.ok()) return Fail("baselines", sd.message());
   const DesignFileHeader& h = sd->file.header;
-      if (a[f].skin.pressure_Pa.size()) {
-        j["frames"].back()["peak_pressure_Pa"] = a[f].skin.peak_Pa;
-        j["frames"].back()["p95_pressure_Pa"] = a[f].skin.p95_Pa;
-        j["frames"].back()["full_peak_pressure_Pa"] = b[f].skin.peak_Pa;
-        j["frames"].back()["full_p95_pressure_Pa"] = b[f].skin.p95_Pa;
-      }
   Result<DesignFile> first = ReadDesignFile(path, {.arrays = true, .only_iteration = 0});
   if (!first.ok()) return Fail("baselines", first.message());
   const Result<BaselineComparison> cmp =

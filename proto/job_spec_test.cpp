@@ -332,8 +332,6 @@ TEST(Records, IterationsRoundTripBitForBit) {
   EXPECT_FALSE(RecordFromProto(bad, faces, vertices).ok());
 }
 
-}  // namespace
-}  // namespace kgd
 // The skin pressure of an evaluation's frames (one value per body vertex) survives its message, and
 // a frame whose pressure does not match its body is refused by name.
 TEST(Records, AnEvaluationsSkinPressureSurvivesItsMessage) {
@@ -356,4 +354,7 @@ TEST(Records, AnEvaluationsSkinPressureSurvivesItsMessage) {
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.message().find("evaluation frame 2: skin_pressure_Pa has 3 values for 4 body vertices"), std::string::npos) << bad.message();
 }
+
+}  // namespace
+}  // namespace kgd
 

@@ -228,6 +228,7 @@ v1::DesignEvaluation EvaluationToProto(const DesignEvaluation& e) {
     Append(f.energy_density_Pa.data(), f.energy_density_Pa.size(), m->mutable_energy_density_pa());
     m->set_energy_j(f.energy_J);
     m->set_solve_status(f.status);
+    Append(f.skin_pressure_Pa.data(), f.skin_pressure_Pa.size(), m->mutable_skin_pressure_pa());
   }
   for (const EvaluatedBaseline& b : e.baselines) {
     v1::BaselineRecord* r = p.add_baselines();
@@ -253,7 +254,6 @@ Result<DesignEvaluation> EvaluationFromProto(const v1::DesignEvaluation& p, int 
     const v1::MotionFrame& m = p.frames(k);
     const std::string what = "evaluation frame " + std::to_string(k + 1);
     Result<Positions> x = PositionsFrom(m.positions(), vertices, what + " positions");
-    Append(f.skin_pressure_Pa.data(), f.skin_pressure_Pa.size(), m->mutable_skin_pressure_pa());
     Result<Positions> body = PositionsFrom(m.body_vertices(), m.body_vertices_size() ? body_vertices : 0, what + " body_vertices");
     if (!x.ok()) return x.status();
     if (!body.ok()) return body.status();
