@@ -319,6 +319,7 @@ TEST(Records, IterationsRoundTripBitForBit) {
 #define KGD_EXPECT_METRIC(type, name, what) EXPECT_EQ(back->name, it.name) << #name;
     KGD_BESO_METRICS(KGD_EXPECT_METRIC)
 #undef KGD_EXPECT_METRIC
+    EXPECT_EQ(back->motions, it.motions);
     EXPECT_EQ(back->design, it.design);
     EXPECT_TRUE(back->positions == it.positions);
     EXPECT_TRUE(back->energy_density_Pa == it.energy_density_Pa);
@@ -330,6 +331,30 @@ TEST(Records, IterationsRoundTripBitForBit) {
   bad = RecordToProto(run->back());
   bad.mutable_design()->front() = 7;
   EXPECT_FALSE(RecordFromProto(bad, faces, vertices).ok());
+}
+
+// A job's motions travel with its garment (the worker's start report, from which the service writes
+// the design file's /job motions); an unknown role is refused naming the motion.
+TEST(Records, TheJobsMotionsTravelWithItsGarment) {
+  Result<SceneSpec> scene = PullTestScene("all_cloth");
+  ASSERT_TRUE(scene.ok());
+  DesignFileHeader h;
+  h.garment = scene->garment;
+  h.initial = scene->initial;
+  h.rest_area_m2 = FaceAreas(scene->garment.vertices, scene->garment.faces);
+  h.motions.resize(2);
+  h.motions[0].name = "straighten";
+  h.motions[1].name = "bend";
+  h.motions[1].role = MotionRole::kAllow;
+  h.motions[1].weight = 0.0;
+  v1::Garment g = GarmentToProto(h);
+  DesignFileHeader back;
+  ASSERT_TRUE(GarmentFromProto(g, &back).ok());
+  EXPECT_EQ(back.motions, h.motions);
+  g.mutable_motions(1)->set_role("tolerate");
+  const Status st = GarmentFromProto(g, &back);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("motion 'bend': role 'tolerate'"), std::string::npos) << st.message();
 }
 
 // The skin pressure of an evaluation's frames (one value per body vertex) survives its message, and

@@ -42,6 +42,32 @@ void GetField(const google::protobuf::Reflection* r, const v1::IterationMetrics&
   if (f) *v = r->GetInt32(m, f);
 }
 
+void MotionToProto(const MotionMetrics& mm, v1::MotionMetrics* p) {
+  p->set_name(mm.name);
+  p->set_role(ToString(mm.role));
+  p->set_weight(mm.weight);
+  p->set_energy_j(mm.energy_J);
+  p->set_reinforced_energy_j(mm.reinforced_energy_J);
+  p->set_reinforced_density_j_per_m2(mm.reinforced_density_J_per_m2);
+  p->set_density_ratio(mm.density_ratio);
+  p->set_simulation_s(mm.simulation_s);
+  p->set_solver_iterations(mm.solver_iterations);
+}
+
+MotionMetrics MotionFromProto(const v1::MotionMetrics& p) {
+  MotionMetrics mm;
+  mm.name = p.name();
+  mm.role = p.role() == "allow" ? MotionRole::kAllow : MotionRole::kResist;
+  mm.weight = p.weight();
+  mm.energy_J = p.energy_j();
+  mm.reinforced_energy_J = p.reinforced_energy_j();
+  mm.reinforced_density_J_per_m2 = p.reinforced_density_j_per_m2();
+  mm.density_ratio = p.density_ratio();
+  mm.simulation_s = p.simulation_s();
+  mm.solver_iterations = p.solver_iterations();
+  return mm;
+}
+
 }  // namespace
 
 Status CheckMetricFields() {
@@ -68,18 +94,7 @@ v1::IterationMetrics MetricsToProto(const BesoIteration& it) {
 #define KGD_METRIC_TO_PROTO(type, name, what) SetField(r, &m, MetricField(#name), it.name);
   KGD_BESO_METRICS(KGD_METRIC_TO_PROTO)
 #undef KGD_METRIC_TO_PROTO
-  for (const MotionMetrics& mm : it.motions) {
-    v1::MotionMetrics* p = m.add_motions();
-    p->set_name(mm.name);
-    p->set_role(ToString(mm.role));
-    p->set_weight(mm.weight);
-    p->set_energy_j(mm.energy_J);
-    p->set_reinforced_energy_j(mm.reinforced_energy_J);
-    p->set_reinforced_density_j_per_m2(mm.reinforced_density_J_per_m2);
-    p->set_density_ratio(mm.density_ratio);
-    p->set_simulation_s(mm.simulation_s);
-    p->set_solver_iterations(mm.solver_iterations);
-  }
+  for (const MotionMetrics& mm : it.motions) MotionToProto(mm, m.add_motions());
   return m;
 }
 
@@ -92,19 +107,7 @@ BesoIteration MetricsFromProto(const v1::IterationMetrics& m) {
 #define KGD_METRIC_FROM_PROTO(type, name, what) GetField(r, m, MetricField(#name), &it.name);
   KGD_BESO_METRICS(KGD_METRIC_FROM_PROTO)
 #undef KGD_METRIC_FROM_PROTO
-  for (const v1::MotionMetrics& p : m.motions()) {
-    MotionMetrics mm;
-    mm.name = p.name();
-    mm.role = p.role() == "allow" ? MotionRole::kAllow : MotionRole::kResist;
-    mm.weight = p.weight();
-    mm.energy_J = p.energy_j();
-    mm.reinforced_energy_J = p.reinforced_energy_j();
-    mm.reinforced_density_J_per_m2 = p.reinforced_density_j_per_m2();
-    mm.density_ratio = p.density_ratio();
-    mm.simulation_s = p.simulation_s();
-    mm.solver_iterations = p.solver_iterations();
-    it.motions.push_back(std::move(mm));
-  }
+  for (const v1::MotionMetrics& p : m.motions()) it.motions.push_back(MotionFromProto(p));
   return it;
 }
 
@@ -159,6 +162,7 @@ v1::Garment GarmentToProto(const DesignFileHeader& h) {
   Append(h.body_mesh.vertices.data(), h.body_mesh.vertices.size(), g.mutable_body_vertices());
   for (Eigen::Index f = 0; f < h.body_mesh.faces.rows(); ++f)
     for (int k = 0; k < 3; ++k) g.add_body_faces(h.body_mesh.faces(f, k));
+  for (const MotionMetrics& m : h.motions) MotionToProto(m, g.add_motions());
   return g;
 }
 
@@ -201,6 +205,13 @@ Status GarmentFromProto(const v1::Garment& g, DesignFileHeader* h) {
       if (v < 0 || v >= bv) return Status::Error("garment: body face " + std::to_string(f) + " names vertex " + std::to_string(v));
       h->body_mesh.faces(f, k) = v;
     }
+  h->motions.clear();
+  for (const v1::MotionMetrics& m : g.motions()) {
+    Result<MotionRole> role = MotionRoleFromName(m.role(), "garment: motion '" + m.name() + "'");
+    if (!role.ok()) return role.status();
+    if (!(m.weight() >= 0)) return Status::Error("garment: motion '" + m.name() + "': weight must be >= 0");
+    h->motions.push_back(MotionFromProto(m));
+  }
   return Status::Ok();
 }
 
