@@ -6,7 +6,8 @@
 #include <cmath>
 #include <limits>
 #include "core/sim/energy_terms.h"
-#include "core/sim/garment_system.h"
+#include "core/sim/garment_model.h"
+#include "core/sim/membrane.h"
 
 namespace kgd {
 
@@ -92,16 +93,30 @@ namespace {
 
 class FoldBarrierFaceTerm final : public EnergyTerm {
  public:
-  explicit FoldBarrierFaceTerm(const TermContext& context) : c_(context) {}
+  // Folds are measured against the garment on the body (model.fold_reference), or the orientation it
+  // starts with.
+  explicit FoldBarrierFaceTerm(const TermContext& context) : model_(context.model) {
+    const GarmentModel& m = context.model;
+    const Positions& ref = m.fold_reference.rows() ? m.fold_reference : context.initial;
+    const int nf = static_cast<int>(m.faces.rows());
+    reference_.resize(nf);
+    area_.resize(nf);
+    for (int f = 0; f < nf; ++f) {
+      const Eigen::Vector3d a = ref.row(m.faces(f, 0)), b = ref.row(m.faces(f, 1)), c = ref.row(m.faces(f, 2));
+      reference_[f] = (b - a).cross(c - a).normalized();
+      area_[f] = MakeMembraneElement(m.rest.row(m.faces(f, 0)), m.rest.row(m.faces(f, 1)), m.rest.row(m.faces(f, 2))).rest_area_m2;
+    }
+    const Material mats[2] = {m.cloth, m.reinforced};
+    for (int k = 0; k < 2; ++k) mu_t_[k] = LameParameters(mats[k], m.lame).mu_Pa * mats[k].thickness_m;
+  }
   Stencil stencil() const override { return Stencil::kFace; }
   ElementEnergy Evaluate(int f, const int* v, const Positions& x, double* g, double* H) override {
     const Eigen::Vector3d x0 = x.row(v[0]), x1 = x.row(v[1]), x2 = x.row(v[2]);
-    const int m = c_.model.design[f];
-    const double area = c_.elements[f].rest_area_m2;
+    const int m = model_.design[f];
+    const double area = area_[f];
     Vector9d gb;
     Matrix9d Hb;
-    const double eb = EvaluateFoldBarrier(x0, x1, x2, c_.fold_reference[f], area, c_.lame[m].mu_Pa * c_.thickness_m[m] * area,
-                                          g ? &gb : nullptr, H ? &Hb : nullptr, true);
+    const double eb = EvaluateFoldBarrier(x0, x1, x2, reference_[f], area, mu_t_[m] * area, g ? &gb : nullptr, H ? &Hb : nullptr, true);
     // Inactive faces (eb = 0) add nothing, not even zeros.
     if (!std::isfinite(eb) || !(eb > 0)) return {eb, false};
     if (g) std::copy_n(gb.data(), gb.size(), g);
@@ -109,9 +124,44 @@ class FoldBarrierFaceTerm final : public EnergyTerm {
     return {eb, true};
   }
   std::string NonFiniteMeaning() const override { return ": folded over"; }
+  // The largest step that goes at most 80 % of the way to folding any triangle over (its projected
+  // area reaching zero), as interior-point methods step towards a barrier.
+  double MaxSafeStep(const Positions& x, const Positions& d) const override {
+    double step = 1.0;
+    const int nf = static_cast<int>(model_.faces.rows());
+#pragma omp parallel for schedule(static) reduction(min : step)
+    for (int f = 0; f < nf; ++f) {
+      const int a = model_.faces(f, 0), b = model_.faces(f, 1), c = model_.faces(f, 2);
+      const Eigen::Vector3d e1 = x.row(b) - x.row(a), e2 = x.row(c) - x.row(a);
+      const Eigen::Vector3d d1 = d.row(b) - d.row(a), d2 = d.row(c) - d.row(a);
+      const Eigen::Vector3d& n = reference_[f];
+      // Projected area along the step: q(t) = q0 + q1 t + q2 t^2 (unnormalized); first root in (0, 1].
+      const double q0 = e1.cross(e2).dot(n), q1 = (d1.cross(e2) + e1.cross(d2)).dot(n), q2 = d1.cross(d2).dot(n);
+      if (q0 <= 0) continue;
+      double root = 2.0;
+      if (std::abs(q2) < 1e-300) {
+        if (q1 < 0) root = -q0 / q1;
+      } else {
+        const double disc = q1 * q1 - 4 * q2 * q0;
+        if (disc >= 0) {
+          const double sq = std::sqrt(disc);
+          // Numerically stable roots of q2 t^2 + q1 t + q0.
+          const double t1 = (-q1 - std::copysign(sq, q1)) / (2 * q2);
+          const double t2 = t1 != 0 ? q0 / (q2 * t1) : 2.0;
+          for (double t : {t1, t2})
+            if (t > 0 && t < root) root = t;
+        }
+      }
+      if (root <= 1.0) step = std::min(step, 0.8 * root);
+    }
+    return step;
+  }
 
  private:
-  TermContext c_;
+  const GarmentModel& model_;
+  std::vector<Eigen::Vector3d> reference_;  // per face: unit normal folds are measured against
+  std::vector<double> area_;                // per face: rest area (m^2)
+  double mu_t_[2];                          // per material: shear modulus times thickness (N/m)
 };
 
 }  // namespace
