@@ -147,6 +147,8 @@ std::string DescribeBesoEnd(BesoEnd end, const std::vector<BesoIteration>& histo
     }
   }
   return "";
+}
+
 std::vector<MotionMetrics> MotionsOfJob(const SceneSpec& scene, const BesoSettings& settings) {
   std::vector<MotionMetrics> out;
   for (const SceneMotion& m : MotionsOf(scene)) {
@@ -159,17 +161,15 @@ std::vector<MotionMetrics> MotionsOfJob(const SceneSpec& scene, const BesoSettin
   return out;
 }
 
-}
-
 Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const BesoSettings& settings,
                                            const std::function<bool(const BesoIteration&)>& on_iteration,
-  KGD_RETURN_IF_ERROR(ValidateSceneMotions(scene_in));
                                            const std::vector<BesoIteration>* resume) {
+  if (Status st = ValidateBesoSettings(settings); !st.ok()) return st;
+  KGD_RETURN_IF_ERROR(ValidateSceneMotions(scene_in));
+  SceneSpec scene = scene_in;
   if (settings.resist_only)
     for (SceneMotion& m : scene.motions)
       if (m.role == MotionRole::kAllow) m.weight = 0;
-  if (Status st = ValidateBesoSettings(settings); !st.ok()) return st;
-  SceneSpec scene = scene_in;
   const int nf = static_cast<int>(scene.garment.faces.rows());
   const int nv = static_cast<int>(scene.garment.vertices.rows());
   scene.design.assign(nf, kReinforced);
@@ -242,6 +242,8 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
   Eigen::VectorXd density = last ? last->energy_density_Pa : Eigen::VectorXd();  // W at x
   double target = last ? last->target_area_m2 : units ? total_area - KeptOutArea(*units, area) : total_area;
   if (units && !last) sys.SetDesign(design);
+  double full_density = past.empty() ? 0.0 : past.front().reinforced_density_J_per_m2;
+  if (last && BesoFinished(past, settings, total_area)) return out;
   // The scene's own motion is motions[0] (simulated by `sys`); the others get systems of their own.
   const std::vector<SceneMotion> motions = MotionsOf(scene);
   std::vector<MotionState> others;
@@ -265,8 +267,6 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
   if (last)
     for (MotionState& st : others)
       if (Result<SimulationResult> r = SolveMotion(&st, last->iteration, true); !r.ok()) return r.status();
-  double full_density = past.empty() ? 0.0 : past.front().reinforced_density_J_per_m2;
-  if (last && BesoFinished(past, settings, total_area)) return out;
   for (int it = last ? last->iteration + 1 : 0; it <= settings.max_iterations; ++it) {
     BesoIteration b;
     const auto t_iteration = Clock::now();
@@ -301,9 +301,9 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
       target = NextTargetArea(target, final_area, settings.evolutionary_ratio);
       design = units ? UpdateDesignOnUnits(*units, filtered, area, design, target, settings.admission_ratio * total_area)
                      : UpdateDesign(filtered, area, design, target, settings.admission_ratio * total_area,
-      for (MotionState& st : others) st.sys->SetDesign(design);
                                     settings.keep_attachments ? &locked : nullptr);
       sys.SetDesign(design);
+      for (MotionState& st : others) st.sys->SetDesign(design);
       b.update_s = Since(t0);
       b.sensitivity = previous;
     }
@@ -318,6 +318,8 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
       x = scene.initial;
       sim.ResetFactorization();
       AccumulateSolve(&report, SolveLagged(sim, sys, &x, scene.solver));
+      b.cold_restart = 1;
+    }
     const SimulationResult r = Summarize(sys, x, reference, report);
     // Every other motion at the same design, each from its own last equilibrium.
     std::vector<MotionMetrics> motion_metrics;
@@ -333,8 +335,6 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
         motion_metrics.push_back(MetricsOfMotion(st.motion, *rk, st.full_density));
         motion_metrics.back().simulation_s = st.simulation_s;
       }
-      b.cold_restart = 1;
-    }
     b.simulation_s = Since(t0);
     RecordSolveProfile(report, &b);
     b.iteration = it;
@@ -347,9 +347,9 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
     b.status = report.status;
     b.solver_iterations = report.iterations;
     b.design = design;
-    b.motions = std::move(motion_metrics);
     b.positions = x;
     b.energy_density_Pa = r.face_density_Pa;
+    b.motions = std::move(motion_metrics);
     density = r.face_density_Pa;
     b.total_s = Since(t_iteration);
     if (!report.at_equilibrium())

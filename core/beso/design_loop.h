@@ -79,6 +79,9 @@ struct BesoIteration {
   Eigen::VectorXd sensitivity;         // filtered sensitivities carried to the next iteration's temporal averaging
                                        // (the averaged ones that ranked this design; with average_with_raw, the
                                        // filtered ones before averaging); empty at iteration 0
+  // Every motion of the scene (MotionsOf), in its order; motions[0] gives the metrics above. Empty only
+  // in records from before motions were stored.
+  std::vector<MotionMetrics> motions;
 };
 
 // The metric that holds the evaluation time of the energy term named `term` (the registry's key,
@@ -91,9 +94,10 @@ void RecordSolveProfile(const SolveReport& report, BesoIteration* it);
 // are all the stop rule and summaries read.
 BesoIteration MetricsOnly(BesoIteration it);
 
-  // Every motion of the scene (MotionsOf), in its order; motions[0] gives the metrics above. Empty only
-  // in records from before motions were stored.
-  std::vector<MotionMetrics> motions;
+// The motions a job on `scene` weighs: name, role and weight of each of MotionsOf(scene), the allowed
+// ones at weight 0 with settings.resist_only (the figures 0).
+std::vector<MotionMetrics> MotionsOfJob(const SceneSpec& scene, const BesoSettings& settings);
+
 // Runs BESO on `scene` (its design is ignored: the loop starts fully reinforced). `on_iteration`
 // (optional) sees every iteration as it lands; returning false stops the run. `resume` (optional):
 // records of an earlier run of the same scene and settings (iterations 0..k, complete for the last);
@@ -106,10 +110,6 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene, const BesoSet
 
 // How a run stands after `history` (iterations 0..k): still running, or why it ended.
 enum class BesoEnd {
-// The motions a job on `scene` weighs: name, role and weight of each of MotionsOf(scene), the allowed
-// ones at weight 0 with settings.resist_only (the figures 0).
-std::vector<MotionMetrics> MotionsOfJob(const SceneSpec& scene, const BesoSettings& settings);
-
   kRunning,
   kConverged,        // target area reached and the objective flat over the window
   kIterationLimit,   // settings.max_iterations reached
