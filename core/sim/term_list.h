@@ -27,4 +27,5 @@
   X(Y, Friction, friction, double, friction, 0.0, "Coulomb coefficient mu (default 0; needs contact)",                     \
     "friction term evaluations (0: not built)")                                                                            \
   X(Y, Bending, bending, bool, bending, false, "discrete-shell bending of the cloth (default false)",                      \
-    "bending term evaluations (0: not built)")
+    "bending term evaluations (0: not built)")                                                                             \
+  /* a new term: one line above this one */
