@@ -28,4 +28,5 @@
     "friction term evaluations (0: not built)")                                                                            \
   X(Y, Bending, bending, bool, bending, false, "discrete-shell bending of the cloth (default false)",                      \
     "bending term evaluations (0: not built)")                                                                             \
+  X(Y, UniformPressure, uniform_pressure, double, uniform_pressure_Pa, 0.0, "pressure along the rest normals, Pa (default 0)", "uniform pressure term evaluations (0: not built)") \
   /* a new term: one line above this one */
