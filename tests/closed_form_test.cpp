@@ -9,6 +9,7 @@
 #include "core/scene/scene.h"
 #include "core/scene/shapes.h"
 #include "core/scene/simulate.h"
+#include "core/sim/membrane.h"
 
 namespace kgd {
 namespace {
