@@ -205,17 +205,19 @@ using Request = httplib::Request;
 using Response = httplib::Response;
 
 void HttpGateway::Impl::ServiceRoutes() {
-  server->Get("/metrics", [this](const Request&, Response& res) {
+  httplib::Server& http = *server;
+  http.Get("/metrics", [this](const Request&, Response& res) {
     res.set_content(service->MetricsText(), "text/plain; version=0.0.4; charset=utf-8");
   });
-  server->Get("/v1/scenes", [this](const Request&, Response& res) {
+  http.Get("/v1/scenes", [this](const Request&, Response& res) {
     v1::ListScenesResponse out;
     if (Answered(res, service->ListScenes(&out))) SetMessage(res, out);
   });
 }
 
 void HttpGateway::Impl::JobRoutes() {
-  server->Get("/v1/jobs", [this](const Request& req, Response& res) {
+  httplib::Server& http = *server;
+  http.Get("/v1/jobs", [this](const Request& req, Response& res) {
     v1::ListJobsRequest r;
     if (req.has_param("pageSize")) {
       long long n = 0;
@@ -234,39 +236,40 @@ void HttpGateway::Impl::JobRoutes() {
     v1::ListJobsResponse out;
     if (Answered(res, service->ListJobs(CallerOf(req), r, &out))) SetMessage(res, out);
   });
-  server->Post("/v1/jobs", [this](const Request& req, Response& res) { CreateJob(req, res); });
-  server->Get(R"(/v1/jobs/([^/:]+))", [this](const Request& req, Response& res) {
+  http.Post("/v1/jobs", [this](const Request& req, Response& res) { CreateJob(req, res); });
+  http.Get(R"(/v1/jobs/([^/:]+))", [this](const Request& req, Response& res) {
     int64_t id = 0;
     v1::Job job;
     if (JobId(req, res, &id) && Answered(res, service->GetJob(CallerOf(req), id, &job))) SetMessage(res, job);
   });
-  server->Post(R"(/v1/jobs/([^/:]+):cancel)", [this](const Request& req, Response& res) {
+  http.Post(R"(/v1/jobs/([^/:]+):cancel)", [this](const Request& req, Response& res) {
     int64_t id = 0;
     v1::Job job;
     if (JobId(req, res, &id) && Answered(res, service->CancelJob(CallerOf(req), id, &job))) SetMessage(res, job);
   });
-  server->Get(R"(/v1/jobs/([^/:]+):watch)", [this](const Request& req, Response& res) { Watch(req, res); });
+  http.Get(R"(/v1/jobs/([^/:]+):watch)", [this](const Request& req, Response& res) { Watch(req, res); });
 }
 
 void HttpGateway::Impl::IterationRoutes() {
-  server->Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+))", [this](const Request& req, Response& res) {
+  httplib::Server& http = *server;
+  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+))", [this](const Request& req, Response& res) {
     v1::GetIterationResponse out;
     if (Iteration(req, res, &out, req.get_param_value("withGarment") == "true")) SetMessage(res, out);
   });
-  server->Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/positions\.f32)", [this](const Request& req, Response& res) {
+  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/positions\.f32)", [this](const Request& req, Response& res) {
     v1::GetIterationResponse out;
     if (Iteration(req, res, &out, false))
       res.set_content(LittleEndianBytes(std::vector<float>(out.record().positions().begin(), out.record().positions().end())), "application/octet-stream");
   });
-  server->Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/energy\.f32)", [this](const Request& req, Response& res) {
+  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/energy\.f32)", [this](const Request& req, Response& res) {
     v1::GetIterationResponse out;
     if (Iteration(req, res, &out, true)) SetEnergyPerArea(res, out.garment(), out.record().design(), out.record().energy_density_pa());
   });
-  server->Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/design\.u8)", [this](const Request& req, Response& res) {
+  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/design\.u8)", [this](const Request& req, Response& res) {
     v1::GetIterationResponse out;
     if (Iteration(req, res, &out, false)) res.set_content(out.record().design(), "application/octet-stream");
   });
-  server->Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/design\.ply)", [this](const Request& req, Response& res) {
+  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/design\.ply)", [this](const Request& req, Response& res) {
     v1::GetIterationResponse out;
     if (!Iteration(req, res, &out, true)) return;
     const std::string name = "job-" + std::string(req.matches[1]) + "-iteration-" + std::to_string(out.record().metrics().iteration()) + ".ply";
@@ -279,7 +282,8 @@ void HttpGateway::Impl::IterationRoutes() {
 
 // Cut files (docs/FABRICATION.md) of an iteration, made on request by geometry alone.
 void HttpGateway::Impl::CutFileRoutes() {
-  server->Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/cut/(pattern\.svg|pattern\.dxf|pattern\.png|patches\.svg|patches\.dxf|patches\.png|report\.json))",
+  httplib::Server& http = *server;
+  http.Get(R"(/v1/jobs/([^/:]+)/iterations/([^/]+)/cut/(pattern\.svg|pattern\.dxf|pattern\.png|patches\.svg|patches\.dxf|patches\.png|report\.json))",
               [this](const Request& req, Response& res) {
                 int64_t id = 0;
                 int n = 0;
@@ -315,16 +319,17 @@ void HttpGateway::Impl::CutFileRoutes() {
 }
 
 void HttpGateway::Impl::GarmentRoutes() {
-  server->Get(R"(/v1/jobs/([^/:]+)/garment/faces\.u32)", [this](const Request& req, Response& res) {
+  httplib::Server& http = *server;
+  http.Get(R"(/v1/jobs/([^/:]+)/garment/faces\.u32)", [this](const Request& req, Response& res) {
     v1::Garment g;
     if (Garment(req, res, &g)) res.set_content(LittleEndianBytes(std::vector<uint32_t>(g.faces().begin(), g.faces().end())), "application/octet-stream");
   });
-  server->Get(R"(/v1/jobs/([^/:]+)/garment/rest\.f32)", [this](const Request& req, Response& res) {
+  http.Get(R"(/v1/jobs/([^/:]+)/garment/rest\.f32)", [this](const Request& req, Response& res) {
     v1::Garment g;
     if (Garment(req, res, &g))
       res.set_content(LittleEndianBytes(std::vector<float>(g.rest_vertices().begin(), g.rest_vertices().end())), "application/octet-stream");
   });
-  server->Get(R"(/v1/jobs/([^/:]+)/body/(vertices\.f32|faces\.u32))", [this](const Request& req, Response& res) {
+  http.Get(R"(/v1/jobs/([^/:]+)/body/(vertices\.f32|faces\.u32))", [this](const Request& req, Response& res) {
     v1::Garment g;
     if (!Garment(req, res, &g)) return;
     if (g.body_faces_size() == 0)
@@ -338,14 +343,15 @@ void HttpGateway::Impl::GarmentRoutes() {
 
 // The finished design over the motion and beside the baselines: figures as JSON, arrays as binary.
 void HttpGateway::Impl::EvaluationRoutes() {
-  server->Get(R"(/v1/jobs/([^/:]+)/evaluation)", [this](const Request& req, Response& res) {
+  httplib::Server& http = *server;
+  http.Get(R"(/v1/jobs/([^/:]+)/evaluation)", [this](const Request& req, Response& res) {
     v1::DesignEvaluation e;
     if (!Evaluation(req, res, &e)) return;
     for (v1::MotionFrame& f : *e.mutable_frames()) f.clear_positions(), f.clear_body_vertices(), f.clear_energy_density_pa(), f.clear_skin_pressure_pa();
     for (v1::BaselineRecord& b : *e.mutable_baselines()) b.clear_positions(), b.clear_energy_density_pa(), b.clear_design();
     SetMessage(res, e);
   });
-  server->Get(R"(/v1/jobs/([^/:]+)/evaluation/frames/([^/]+)/(positions\.f32|body\.f32|energy\.f32|pressure\.f32))", [this](const Request& req, Response& res) {
+  http.Get(R"(/v1/jobs/([^/:]+)/evaluation/frames/([^/]+)/(positions\.f32|body\.f32|energy\.f32|pressure\.f32))", [this](const Request& req, Response& res) {
     v1::DesignEvaluation e;
     if (!Evaluation(req, res, &e)) return;
     long long k = 0;
@@ -365,7 +371,7 @@ void HttpGateway::Impl::EvaluationRoutes() {
     v1::GetIterationResponse it;
     if (EvaluatedIteration(req, res, e, &it)) SetEnergyPerArea(res, it.garment(), it.record().design(), f.energy_density_pa());
   });
-  server->Get(R"(/v1/jobs/([^/:]+)/evaluation/baselines/([^/]+)/(positions\.f32|design\.u8|energy\.f32))", [this](const Request& req, Response& res) {
+  http.Get(R"(/v1/jobs/([^/:]+)/evaluation/baselines/([^/]+)/(positions\.f32|design\.u8|energy\.f32))", [this](const Request& req, Response& res) {
     v1::DesignEvaluation e;
     if (!Evaluation(req, res, &e)) return;
     const v1::BaselineRecord* b = nullptr;
@@ -381,7 +387,8 @@ void HttpGateway::Impl::EvaluationRoutes() {
 }
 
 void HttpGateway::Impl::DesignFileRoutes() {
-  server->Get(R"(/v1/jobs/([^/:]+)/design-file)", [this](const Request& req, Response& res) {
+  httplib::Server& http = *server;
+  http.Get(R"(/v1/jobs/([^/:]+)/design-file)", [this](const Request& req, Response& res) {
     int64_t id = 0;
     std::string bytes;
     if (!JobId(req, res, &id) || !Answered(res, service->GetDesignFile(CallerOf(req), id, &bytes))) return;
