@@ -90,7 +90,7 @@ MotionMetrics MetricsOfMotion(const SceneMotion& motion, const SimulationResult&
 }  // namespace
 
 double BesoIteration::*TermTimeMetric(std::string_view term) {
-#define KGD_TERM_TIME_ENTRY(Y, Class, key, Type, effect, value, effect_what, time_what) {#key, &BesoIteration::key##_s},
+#define KGD_TERM_TIME_ENTRY(Y, Class, key, sum_place, Type, effect, value, effect_what, time_what) {#key, &BesoIteration::key##_s},
   static const std::pair<std::string_view, double BesoIteration::*> metrics[] = {KGD_ENERGY_TERMS(KGD_TERM_TIME_ENTRY, )};
 #undef KGD_TERM_TIME_ENTRY
   for (const auto& [name, member] : metrics)

@@ -50,7 +50,7 @@ namespace kgd {
   X(double, line_search_s, "line search (energy trials, contact projection)")                               \
   X(double, body_field_query_s, "body-field queries outside the contact term (the contact projection)")     \
   KGD_ENERGY_TERMS(KGD_BESO_TERM_TIME_METRIC, X)
-#define KGD_BESO_TERM_TIME_METRIC(X, Class, key, Type, effect, value, effect_what, time_what) X(double, key##_s, time_what)
+#define KGD_BESO_TERM_TIME_METRIC(X, Class, key, sum_place, Type, effect, value, effect_what, time_what) X(double, key##_s, time_what)
 
 // One motion's figures in an iteration (docs/MODEL.md, "Motions with roles"): the design simulated in
 // that motion. density_ratio: against the motion's own fully reinforced design (iteration 0).

@@ -166,7 +166,7 @@ Status ReadEffects(const Reader& r, const json& doc, SceneSpec* s) {
   if (doc.contains(sk::Scene::effects)) {
     const json& e = doc[sk::Scene::effects];
     KGD_RETURN_IF_ERROR(r.CheckKeys(e, "effects", "SceneEffects"));
-#define KGD_READ_EFFECT(Y, Class, key, Type, effect, value, effect_what, time_what) \
+#define KGD_READ_EFFECT(Y, Class, key, sum_place, Type, effect, value, effect_what, time_what) \
   KGD_RETURN_IF_ERROR(ReadEffect(r, e, sk::SceneEffects::effect, &s->effects.effect));
     KGD_ENERGY_TERMS(KGD_READ_EFFECT, )
 #undef KGD_READ_EFFECT
@@ -683,7 +683,7 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
                       {sk::SceneMaterials::cloth, MaterialJson(s.cloth)},
                       {sk::SceneMaterials::reinforced, MaterialJson(s.reinforced)}};
   doc[sk::Scene::effects] = {{sk::SceneEffects::relaxation, RelaxationName(s.effects.relaxation)}, {sk::SceneEffects::clamps, s.effects.clamps}};
-#define KGD_WRITE_EFFECT(Y, Class, key, Type, effect, value, effect_what, time_what) \
+#define KGD_WRITE_EFFECT(Y, Class, key, sum_place, Type, effect, value, effect_what, time_what) \
   doc[sk::Scene::effects][sk::SceneEffects::effect] = EffectJson(s.effects.effect);
   KGD_ENERGY_TERMS(KGD_WRITE_EFFECT, )
 #undef KGD_WRITE_EFFECT

@@ -71,7 +71,7 @@
   X(SceneSolver, project_contact_crossings, "project vertices that cross the body back out")          \
   X(SceneSolver, local_steps, "local Newton steps on the few vertices that still move")
 // (the list ends here)
-#define KGD_SCENE_EFFECT_KEY(X, Class, key, Type, effect, value, effect_what, time_what) X(SceneEffects, effect, effect_what)
+#define KGD_SCENE_EFFECT_KEY(X, Class, key, sum_place, Type, effect, value, effect_what, time_what) X(SceneEffects, effect, effect_what)
 
 namespace kgd {
 

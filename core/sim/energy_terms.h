@@ -24,13 +24,14 @@ struct TermContext {
   const Hinges& hinges;
 };
 
-#define KGD_DECLARE_TERM_FACTORY(Y, Class, key, Type, effect, value, effect_what, time_what) \
+#define KGD_DECLARE_TERM_FACTORY(Y, Class, key, sum_place, Type, effect, value, effect_what, time_what) \
   std::unique_ptr<EnergyTerm> Make##Class##Term(const TermContext& context);
 KGD_ENERGY_TERMS(KGD_DECLARE_TERM_FACTORY, )
 #undef KGD_DECLARE_TERM_FACTORY
 
 struct TermRegistration {
   const char* name;  // the term list's key
+  int sum_place;     // its place in the order an element sums its stencil's terms
   std::unique_ptr<EnergyTerm> (*make)(const TermContext&);
 };
 // The term list as a table, in its order.

@@ -66,7 +66,7 @@ struct Clamp {
 struct Effects {
   Relaxation relaxation = Relaxation::kExact;
   bool clamps = false;
-#define KGD_EFFECT_MEMBER(Y, Class, key, Type, effect, value, effect_what, time_what) Type effect = value;
+#define KGD_EFFECT_MEMBER(Y, Class, key, sum_place, Type, effect, value, effect_what, time_what) Type effect = value;
   KGD_ENERGY_TERMS(KGD_EFFECT_MEMBER, )
 #undef KGD_EFFECT_MEMBER
 };

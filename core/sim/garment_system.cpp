@@ -125,11 +125,15 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
 
   // The terms the effects switch on, each in the group of its stencil.
   const TermContext context{model_, initial, caches_, hinges_};
-  for (const TermRegistration& reg : EnergyTermRegistry()) {
+  const std::vector<TermRegistration>& registry = EnergyTermRegistry();
+  std::vector<size_t> registry_index;  // per term: its registry entry
+  for (size_t i = 0; i < registry.size(); ++i) {
+    const TermRegistration& reg = registry[i];
     std::unique_ptr<EnergyTerm> term = reg.make(context);
     registered_term_.push_back(term ? static_cast<int>(terms_.size()) : -1);
     if (!term) continue;
     term_names_.push_back(reg.name);
+    registry_index.push_back(i);
     record_width_.push_back(term->RecordWidth());
     lagged_ = lagged_ || term->lagged();
     terms_.push_back(std::move(term));
@@ -142,8 +146,11 @@ GarmentSystem::GarmentSystem(GarmentModel model, const Positions& initial) : mod
     Group g;
     g.stencil = stencil;
     g.k = StencilSize(stencil);
+    // In the order of the term list's sum places.
     for (size_t t = 0; t < terms_.size(); ++t)
       if (terms_[t]->stencil() == stencil) g.terms.push_back(static_cast<int>(t));
+    std::sort(g.terms.begin(), g.terms.end(),
+              [&](int a, int b) { return registry[registry_index[a]].sum_place < registry[registry_index[b]].sum_place; });
     // Faces always: their couplings make the Hessian's pattern whatever the terms.
     if (g.terms.empty() && stencil != Stencil::kFace) continue;
     std::vector<std::vector<int>> faces_of;  // per element: the faces whose design it reads

@@ -810,5 +810,44 @@ TEST(GarmentSystem, ValidateModelNamesTheProblem) {
   EXPECT_NE(ValidateModel(m).message().find("face 5"), std::string::npos);
 }
 
+// One triangle with the membrane, the fold barrier (q 0.05: active) and an attachment: the face sums
+// its terms in the term list's sum places, membrane + fold barrier, then the attachment, bit for bit
+// (the other order differs in the last bit here, so the check sees the order).
+TEST(GarmentSystem, AFaceSumsItsTermsInTheTermListsSumPlaces) {
+  GarmentModel m;
+  m.faces.resize(1, 3);
+  m.faces << 0, 1, 2;
+  m.rest.resize(3, 3);
+  m.rest << 0, 0, 0, 0.01, 0, 0, 0, 0.01, 0;
+  m.design = {kCloth};
+  m.attachments.faces = {0};
+  m.attachments.anchors.resize(1, 3);
+  m.attachments.anchors << 0.004, 0.003, 0.001;
+  Positions x = m.rest;
+  x.row(1) << 0.0123, 0.0011, 0.0007;
+  x.row(2) << 0.0017, 0.00049, 0.0003;
+  auto gradient = [&](bool membrane, bool fold, bool attach, Eigen::SparseMatrix<double>* H) {
+    GarmentModel one = m;
+    one.effects = Effects{};
+    one.effects.membrane = membrane;
+    one.effects.fold_barrier = fold;
+    one.effects.attachments = attach;
+    GarmentSystem sys(one, m.rest);
+    Eigen::VectorXd g;
+    *H = sys.hessian_pattern();
+    EXPECT_TRUE(std::isfinite(sys.Evaluate(x, &g, H)));
+    return g;
+  };
+  Eigen::SparseMatrix<double> H, Hm, Hf, Ha;
+  const Eigen::VectorXd g = gradient(true, true, true, &H);
+  const Eigen::VectorXd gm = gradient(true, false, false, &Hm), gf = gradient(false, true, false, &Hf),
+                        ga = gradient(false, false, true, &Ha);
+  ASSERT_GT(gf.norm(), 0) << "the fold barrier is active";
+  ASSERT_NE((gm + ga) + gf, (gm + gf) + ga) << "the two orders agree here: the check could not see the order";
+  for (int i = 0; i < g.size(); ++i) EXPECT_EQ(g[i], (gm[i] + gf[i]) + ga[i]) << "coordinate " << i;
+  const Eigen::MatrixXd Hd = H, Hs = (Eigen::MatrixXd(Hm) + Eigen::MatrixXd(Hf)) + Eigen::MatrixXd(Ha);
+  EXPECT_TRUE(Hd == Hs);
+}
+
 }  // namespace
 }  // namespace kgd
