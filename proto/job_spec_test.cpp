@@ -382,4 +382,3 @@ TEST(Records, AnEvaluationsSkinPressureSurvivesItsMessage) {
 
 }  // namespace
 }  // namespace kgd
-

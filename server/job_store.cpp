@@ -4,6 +4,7 @@
 #include <google/protobuf/message.h>
 
 #include <random>
+#include <set>
 
 namespace kgd::server {
 namespace {
@@ -165,6 +166,21 @@ Result<std::unique_ptr<JobStore>> JobStore::Open(const std::string& path) {
     if (Status st = store->Exec(sql); !st.ok()) {
       store->Exec("ROLLBACK");
       return Status::Error(path + ": migration to schema version " + std::to_string(v + 1) + " failed: " + st.message());
+    }
+  }
+  // A metric field added to IterationMetrics (a new energy term's time, say) gets its column here,
+  // with 0 for the iterations stored before it: the schema follows the proto, no migration by hand.
+  {
+    std::set<std::string> have;
+    Stmt s(store->db_, "PRAGMA table_info(iterations)");
+    while (s.Step() == SQLITE_ROW) have.insert(s.Text(1));
+    if (!s.ok()) return Status::Error(path + ": reading the iterations table's columns failed: " + s.error());
+    for (const FieldDescriptor* f : MetricFields()) {
+      if (have.count(f->name())) continue;
+      const bool text = f->cpp_type() == FieldDescriptor::CPPTYPE_STRING;
+      const bool real = f->cpp_type() == FieldDescriptor::CPPTYPE_DOUBLE || f->cpp_type() == FieldDescriptor::CPPTYPE_FLOAT;
+      const std::string sql = "ALTER TABLE iterations ADD COLUMN " + f->name() + (text ? " TEXT NOT NULL DEFAULT ''" : real ? " REAL NOT NULL DEFAULT 0" : " INTEGER NOT NULL DEFAULT 0");
+      if (Status st = store->Exec(sql); !st.ok()) return Status::Error(path + ": adding the metric column " + f->name() + " failed: " + st.message());
     }
   }
   std::random_device rd;

@@ -112,6 +112,8 @@ async function submit(ev) {
     if (!(b > 0 && b <= 1)) return showError(`budget: ${budget} is outside (0, 1]`);
     spec.optimizer.budget = b;
   }
+  if ($('symmetric').checked) spec.optimizer.symmetric = true;
+  if ($('resist-only').checked) spec.optimizer.resistOnly = true;
   if (iters !== '') {
     const n = Number(iters);
     if (!Number.isInteger(n) || n < 1) return showError(`maxIterations: ${iters} is not a whole number >= 1`);

@@ -279,8 +279,12 @@ try {
   // A second, long job: cancel it from the jobs list.
   await page.fill('#max-iterations', '400');
   await page.fill('#budget', '0.05');
+  await page.check('#resist-only');
   await page.click('#submit-button');
   const secondId = await until('the second job', () => page.evaluate((first) => { const s = window.kgd.state.selected; return s !== first ? s : null; }, jobId));
+  const secondSpec = (await apiJson(base, `v1/jobs/${secondId}`)).spec?.optimizer ?? {};
+  check(secondSpec.resistOnly === true && (await apiJson(base, `v1/jobs/${jobId}`)).spec?.optimizer?.resistOnly !== true,
+    `the resisted-motions-only box reaches the job spec (second job: resistOnly ${secondSpec.resistOnly}; the first job unticked)`);
   await until('its cancel button', () => page.locator(`tr[data-id="${secondId}"] button`).count());
   check((await apiJson(base, `v1/jobs/${secondId}`)).state !== 'CANCELLED', `job ${secondId} is not cancelled before the click`);
   await page.click(`tr[data-id="${secondId}"] button`);
@@ -290,6 +294,16 @@ try {
   const listed = await until('the jobs list to show it cancelled', () => page.evaluate((id) => window.kgd.state.jobs.get(id)?.state === 'CANCELLED'
     && document.querySelector(`tr[data-id="${id}"] .state-CANCELLED`) !== null, secondId), 10000).then(() => true, () => false);
   check(listed, `the jobs list shows job ${secondId} CANCELLED`);
+  // A symmetric design of the right arm's sleeve: the worker refuses it, naming the mirror plane.
+  await page.uncheck('#resist-only');
+  await page.check('#symmetric');
+  await page.fill('#max-iterations', '5');
+  await page.click('#submit-button');
+  const thirdId = await until('the third job', () => page.evaluate((ids) => { const s = window.kgd.state.selected; return ids.includes(s) ? null : s; }, [jobId, secondId]));
+  await page.uncheck('#symmetric');
+  const third = await until('the symmetric job to fail', async () => { const j = await apiJson(base, `v1/jobs/${thirdId}`); return ['FAILED', 'SUCCEEDED'].includes(j.state) ? j : null; }, 120000).catch(() => ({}));
+  check(third.spec?.optimizer?.symmetric === true && third.state === 'FAILED' && /not symmetric/.test(third.failure ?? ''),
+    `the symmetric box reaches the job spec, and a one-armed sleeve is refused as not symmetric (state ${third.state}: ${third.failure ?? ''})`);
   await page.screenshot({ path: path.join(artifacts, 'desktop-1280x800.png') });
 
   // Tablet width: one column, nothing wider than the screen.
