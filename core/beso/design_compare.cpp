@@ -1,27 +1,10 @@
 #include "core/beso/design_compare.h"
 
 #include <memory>
-#include <nanoflann.hpp>
+
+#include "core/mesh/point_cloud.h"
 
 namespace kgd {
-namespace {
-
-struct Centroids {
-  Positions points;
-  size_t kdtree_get_point_count() const { return points.rows(); }
-  double kdtree_get_pt(size_t i, size_t dim) const { return points(i, dim); }
-  template <class BBox>
-  bool kdtree_get_bbox(BBox&) const { return false; }
-};
-
-Positions FaceCentroids(const TriMesh& m) {
-  Positions c(m.faces.rows(), 3);
-  for (Eigen::Index f = 0; f < m.faces.rows(); ++f)
-    c.row(f) = (m.vertices.row(m.faces(f, 0)) + m.vertices.row(m.faces(f, 1)) + m.vertices.row(m.faces(f, 2))) / 3.0;
-  return c;
-}
-
-}  // namespace
 
 double DesignJaccard(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, const Eigen::VectorXd& face_area_m2) {
   double both = 0, either = 0;
@@ -34,11 +17,10 @@ double DesignJaccard(const std::vector<uint8_t>& a, const std::vector<uint8_t>& 
 }
 
 std::vector<uint8_t> TransferDesign(const TriMesh& from, const std::vector<uint8_t>& design, const TriMesh& to) {
-  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Centroids>, Centroids, 3, int>;
-  Centroids cloud{FaceCentroids(from)};
-  Tree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+  PointCloud cloud{FaceCentroids(from.vertices, from.faces)};
+  PointCloudTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
   tree.buildIndex();
-  const Positions targets = FaceCentroids(to);
+  const Positions targets = FaceCentroids(to.vertices, to.faces);
   std::vector<uint8_t> out(to.faces.rows(), 0);
   for (Eigen::Index f = 0; f < targets.rows(); ++f) {
     const Eigen::Vector3d q = targets.row(f).transpose();

@@ -4,28 +4,13 @@
 #include <cmath>
 #include <cstdio>
 #include <numeric>
-#include <nanoflann.hpp>
 
 #include "core/beso/beso.h"
+#include "core/mesh/point_cloud.h"
 #include "core/sim/garment_system.h"
 
 namespace kgd {
 namespace {
-
-struct Cloud {
-  Positions points;
-  size_t kdtree_get_point_count() const { return points.rows(); }
-  double kdtree_get_pt(size_t i, size_t dim) const { return points(i, dim); }
-  template <class BBox>
-  bool kdtree_get_bbox(BBox&) const { return false; }
-};
-
-Positions Centroids(const TriMesh& m) {
-  Positions c(m.faces.rows(), 3);
-  for (Eigen::Index f = 0; f < m.faces.rows(); ++f)
-    c.row(f) = (m.vertices.row(m.faces(f, 0)) + m.vertices.row(m.faces(f, 1)) + m.vertices.row(m.faces(f, 2))) / 3.0;
-  return c;
-}
 
 std::string Vec(const Eigen::Vector3d& v) {
   char buf[96];
@@ -65,9 +50,8 @@ Result<MirrorPairing> PairMirrorFaces(const TriMesh& rest, const SymmetryPlane& 
   MirrorPairing p;
   p.tolerance_m = plane.tolerance_m > 0 ? plane.tolerance_m : DefaultMirrorTolerance(rest);
   const int nf = static_cast<int>(rest.faces.rows());
-  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, 3, int>;
-  Cloud cloud{Centroids(rest)};
-  Tree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+  PointCloud cloud{FaceCentroids(rest.vertices, rest.faces)};
+  PointCloudTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
   tree.buildIndex();
   p.mirror.assign(nf, -1);
   std::vector<int> unmatched;

@@ -73,6 +73,12 @@ Eigen::VectorXd OneRingMeanEdgeLength(const Positions& x, const Faces& faces) {
   return sum;
 }
 
+Positions FaceCentroids(const Positions& x, const Faces& faces) {
+  Positions c(faces.rows(), 3);
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) c.row(f) = (x.row(faces(f, 0)) + x.row(faces(f, 1)) + x.row(faces(f, 2))) / 3.0;
+  return c;
+}
+
 Positions FaceCentroids(const Positions& x, const Faces& faces, const std::vector<int>& face_ids) {
   Positions c(face_ids.size(), 3);
   for (size_t i = 0; i < face_ids.size(); ++i) {

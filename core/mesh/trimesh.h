@@ -44,6 +44,8 @@ Eigen::VectorXd OneRingMeanEdgeLength(const Positions& x, const Faces& faces);
 
 // Centroid of each listed face.
 Positions FaceCentroids(const Positions& x, const Faces& faces, const std::vector<int>& face_ids);
+// Centroid of every face, in face order.
+Positions FaceCentroids(const Positions& x, const Faces& faces);
 
 // Checks what the simulator relies on: finite coordinates, a size that is metres (at most
 // kMaxMeshExtent_m across: a larger mesh is taken for one in millimetres or centimetres), indices in

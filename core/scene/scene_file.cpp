@@ -617,6 +617,9 @@ nlohmann::ordered_json MaterialJson(const Material& m) {
 }  // namespace
 
 Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
+  if (s.motions.size() > 1)
+    return Status::Error(s.name + ": a scene file holds one motion, and this scene weighs " + std::to_string(s.motions.size()) +
+                         " (its motions with roles run as the built-in scene: kgd design " + s.name + ")");
   const fs::path dir(dir_path);
   std::error_code ec;
   fs::create_directories(dir, ec);

@@ -84,6 +84,17 @@ TEST(Scene, ExportThenLoadReproducesTheBuiltinResult) {
 
 // A scene sent with a job is loaded from memory, not from a folder: the same scene as from its folder,
 // bit for bit, and a file the bundle lacks, or one that does not parse, is named as the scene names it.
+TEST(Scene, ASceneOfSeveralMotionsIsNotExportedAsOne) {
+  auto scene = BuiltinScene("pull_test_x");
+  ASSERT_TRUE(scene.ok());
+  scene->motions = {SceneMotion{"pull", MotionRole::kResist, 1.0, {}}, SceneMotion{"other", MotionRole::kAllow, 1.0, {}}};
+  const std::string dir = TempDir("two_motions");
+  const Status st = ExportScene(*scene, dir);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("weighs 2"), std::string::npos) << st.message();
+  EXPECT_FALSE(std::filesystem::exists(dir + "/scene.json"));
+}
+
 TEST(Scene, ABundleInMemoryLoadsAsTheSceneFolder) {
   for (const std::string name : {"pull_test_x", "sleeve_on_limb"}) {
     auto builtin = BuiltinScene(name);

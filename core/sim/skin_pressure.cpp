@@ -1,21 +1,14 @@
 #include "core/sim/skin_pressure.h"
 
+#include "core/mesh/point_cloud.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <nanoflann.hpp>
 #include <vector>
 
 namespace kgd {
 namespace {
-
-struct Centroids {
-  Positions points;
-  size_t kdtree_get_point_count() const { return points.rows(); }
-  double kdtree_get_pt(size_t i, size_t dim) const { return points(i, dim); }
-  template <class BBox>
-  bool kdtree_get_bbox(BBox&) const { return false; }
-};
 
 // Barycentric coordinates of the point of triangle (a, b, c) closest to p (Ericson, Real-Time
 // Collision Detection, 5.1.5).
@@ -100,10 +93,8 @@ SkinPressure PressureOnBody(const TriMesh& body, const Positions& x, const Faces
   out.pressure_Pa = Eigen::VectorXd::Zero(nb);
   if (nf > 0 && q.cwiseAbs().maxCoeff() > 0) {
     const double tolerance = 0.5 * MeanEdgeLength(x, faces);
-    using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Centroids>, Centroids, 3, int>;
-    Centroids cloud{Positions(nf, 3)};
-    for (Eigen::Index f = 0; f < nf; ++f) cloud.points.row(f) = (x.row(faces(f, 0)) + x.row(faces(f, 1)) + x.row(faces(f, 2))) / 3.0;
-    Tree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+    PointCloud cloud{FaceCentroids(x, faces)};
+    PointCloudTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
     tree.buildIndex();
     const Eigen::RowVector3d lo = x.colwise().minCoeff().array() - tolerance, hi = x.colwise().maxCoeff().array() + tolerance;
     const int k = static_cast<int>(std::min<Eigen::Index>(kCandidateTriangles, nf));
