@@ -204,6 +204,11 @@ async function refreshJobs() {
 
 // -- One job: live view and explorer -------------------------------------------------------------------
 
+// A failed job's reason where its iterations' figures go (a job with none would show nothing).
+function showFailure(job) {
+  $('metrics').textContent = job?.state === 'FAILED' ? `failed: ${job.failure || 'no reason given'}` : '';
+}
+
 async function select(id) {
   id = String(id);
   if (state.watch) state.watch.close();
@@ -217,6 +222,7 @@ async function select(id) {
   state.meshes = null;
   $('scrub').max = 0;
   $('scrub').value = 0;
+  showFailure(state.job);
   renderDownloads();
   // The server ends the stream of an ended job once it has sent every iteration; EventSource would
   // reconnect to it every two seconds for as long as the page stays open.
@@ -229,6 +235,7 @@ async function select(id) {
       state.job = job;
       state.jobs.set(job.id, job);
       renderJobs();
+      showFailure(job);
       renderDownloads();
       if (job.state === 'SUCCEEDED' && !state.evaluation) loadEvaluation(id);
     },

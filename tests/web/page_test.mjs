@@ -304,6 +304,8 @@ try {
   const third = await until('the symmetric job to fail', async () => { const j = await apiJson(base, `v1/jobs/${thirdId}`); return ['FAILED', 'SUCCEEDED'].includes(j.state) ? j : null; }, 120000).catch(() => ({}));
   check(third.spec?.optimizer?.symmetric === true && third.state === 'FAILED' && /not symmetric/.test(third.failure ?? ''),
     `the symmetric box reaches the job spec, and a one-armed sleeve is refused as not symmetric (state ${third.state}: ${third.failure ?? ''})`);
+  const shownFailure = await until('the failure on the page', () => page.evaluate(() => document.getElementById('metrics').textContent), 10000).catch(() => '');
+  check(/^failed: .*not symmetric/.test(shownFailure), `the page shows the failed job's reason ("${shownFailure.slice(0, 80)}")`);
   await page.screenshot({ path: path.join(artifacts, 'desktop-1280x800.png') });
 
   // Tablet width: one column, nothing wider than the screen.
