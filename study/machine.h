@@ -7,8 +7,10 @@
 
 namespace kgd::study {
 
-// "2026-11-26, AMD EPYC 7B13, 2 cores": today's date (UTC), /proc/cpuinfo's first "model name"
-// ("unknown CPU" without one) and the threads the hardware runs at once.
+// "2026-11-27, AMD EPYC (family 25 model 17, AVX-512), 2 cores, 24 GiB": today's date (UTC),
+// /proc/cpuinfo's first "model name" ("unknown CPU" without one), its family and model (which tell apart
+// machines of one model name) and widest vector instruction set, the threads the hardware runs at once
+// and the memory (/proc/meminfo).
 std::string MachineLine();
 
 }  // namespace kgd::study
