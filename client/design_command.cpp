@@ -293,9 +293,49 @@ Result<StoredDesign> LoadStoredDesign(const std::string& path, int k) {
   return StoredDesign{std::move(f).value(), std::move(scene).value(), k};
 }
 
-int RunEvaluate(const std::string& path, int k, bool json) {
+// The stored design on every body of `on` (a scene argument; empty: the design file's own scene):
+// density ratio against each body's fully reinforced garment (docs/MODEL.md, "Range of bodies").
+int RunEvaluateOnBodies(const StoredDesign& sd, const std::string& path, const std::string& on, bool json) {
+  Result<SceneSpec> scene = on.empty() ? Result<SceneSpec>(sd.scene) : ResolveScene(on);
+  if (!scene.ok()) return Fail("evaluate", scene.message());
+  const std::vector<uint8_t>& design = sd.file.iterations[sd.iteration].design;
+  Result<std::vector<BodyEvaluation>> bodies = EvaluateOnBodies(*scene, design);
+  if (!bodies.ok()) return Fail("evaluate", path + " on " + scene->name + ": " + bodies.message());
+  nlohmann::ordered_json j;
+  j["file"] = path;
+  j["iteration"] = sd.iteration;
+  j["scene"] = scene->name;
+  j["bodies"] = nlohmann::json::array();
+  if (!json)
+    std::printf("design of iteration %d (%.1f%% reinforced) on the bodies of %s, deformed pose\n%-8s %12s %14s %14s %7s\n", sd.iteration,
+                100 * sd.file.iterations[sd.iteration].area_fraction, scene->name.c_str(), "body", "reinf_J", "density_J/m2", "full_J/m2",
+                "ratio");
+  double worst = std::numeric_limits<double>::infinity();
+  for (const BodyEvaluation& e : *bodies) {
+    worst = std::min(worst, e.density_ratio);
+    if (json)
+      j["bodies"].push_back({{"body", e.name},
+                             {"reinforced_energy_J", e.designed.reinforced_energy_J},
+                             {"reinforced_density_J_per_m2", e.designed.reinforced_density_J_per_m2},
+                             {"full_reinforced_density_J_per_m2", e.full.reinforced_density_J_per_m2},
+                             {"density_ratio", e.density_ratio}});
+    else
+      std::printf("%-8s %12.6g %14.6g %14.6g %7.3f\n", e.name.c_str(), e.designed.reinforced_energy_J, e.designed.reinforced_density_J_per_m2,
+                  e.full.reinforced_density_J_per_m2, e.density_ratio);
+  }
+  if (json) {
+    j["worst_density_ratio"] = worst;
+    std::printf("%s\n", j.dump().c_str());
+  } else {
+    std::printf("worst body: density ratio %.3f\n", worst);
+  }
+  return 0;
+}
+
+int RunEvaluate(const std::string& path, int k, bool json, const std::string& on) {
   Result<StoredDesign> sd = LoadStoredDesign(path, k);
   if (!sd.ok()) return Fail("evaluate", sd.message());
+  if (!on.empty() || !sd->scene.bodies.empty()) return RunEvaluateOnBodies(*sd, path, on, json);
   SceneSpec designed = sd->scene, full = sd->scene;
   designed.design = sd->file.iterations[sd->iteration].design;
   full.design.assign(full.design.size(), kReinforced);
@@ -433,7 +473,12 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
   ev->add_option("file", *file, "Design file (HDF5)")->required();
   ev->add_option("--iteration", *iteration, "Which iteration's design (default: the last)");
   ev->add_flag("--json", *json, "Print as one JSON object");
-  ev->callback([file, iteration, json, exit_code] { *exit_code = RunEvaluate(*file, *iteration, *json); });
+  auto on = std::make_shared<std::string>();
+  ev->add_option("--on", *on,
+                 "Instead: the design on every body of this scene (a built-in name or scene file with the design's garment faces, "
+                 "e.g. knee_flexion_sizes), in the deformed pose against each body's fully reinforced garment; a design file of "
+                 "several bodies always is");
+  ev->callback([file, iteration, json, on, exit_code] { *exit_code = RunEvaluate(*file, *iteration, *json, *on); });
 
   CLI::App* bl = app.add_subcommand("baselines", "Simulate a Line and an X of the same reinforced area as a stored design, and compare");
   bl->add_option("file", *file, "Design file (HDF5)")->required();

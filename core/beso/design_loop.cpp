@@ -1,6 +1,8 @@
 #include "core/beso/design_loop.h"
 
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <cstdio>
 #include <optional>
 #include <memory>
@@ -87,6 +89,22 @@ MotionMetrics MetricsOfMotion(const SceneMotion& motion, const SimulationResult&
   return out;
 }
 
+// The weight of each motion (each body) in an iteration's sensitivities: its own, but for a range of
+// bodies weighed by the worst: w_b exp(-(q_b - q_min) / T) with q_b the body's density ratio in the
+// iteration before (`before`), scaled to the weights' sum (docs/MODEL.md, "Range of bodies").
+std::vector<double> CaseWeights(const SceneSpec& scene, const std::vector<SceneMotion>& motions, const BesoIteration& before) {
+  std::vector<double> w;
+  for (const SceneMotion& m : motions) w.push_back(m.weight);
+  if (scene.bodies.empty() || scene.body_objective != BodyObjective::kWorst || before.motions.size() != motions.size()) return w;
+  double lowest = std::numeric_limits<double>::infinity(), sum = 0, soft = 0;
+  for (size_t k = 0; k < w.size(); ++k)
+    if (w[k] > 0) lowest = std::min(lowest, before.motions[k].density_ratio), sum += w[k];
+  for (size_t k = 0; k < w.size(); ++k)
+    if (w[k] > 0) w[k] *= std::exp(-(before.motions[k].density_ratio - lowest) / kWorstBodyTemperature), soft += w[k];
+  for (double& v : w) v *= sum / soft;
+  return w;
+}
+
 }  // namespace
 
 double BesoIteration::*TermTimeMetric(std::string_view term) {
@@ -166,6 +184,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
                                            const std::vector<BesoIteration>* resume) {
   if (Status st = ValidateBesoSettings(settings); !st.ok()) return st;
   KGD_RETURN_IF_ERROR(ValidateSceneMotions(scene_in));
+  KGD_RETURN_IF_ERROR(ValidateSceneBodies(scene_in));
   SceneSpec scene = scene_in;
   if (settings.resist_only)
     for (SceneMotion& m : scene.motions)
@@ -245,6 +264,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
   double full_density = past.empty() ? 0.0 : past.front().reinforced_density_J_per_m2;
   if (last && BesoFinished(past, settings, total_area)) return out;
   // The scene's own motion is motions[0] (simulated by `sys`); the others get systems of their own.
+  // A scene of several bodies: one motion per body, the others on their own garment rest shapes.
   const std::vector<SceneMotion> motions = MotionsOf(scene);
   std::vector<MotionState> others;
   int active = 0;  // motions in the objective
@@ -252,7 +272,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
   for (size_t k = 1; k < motions.size(); ++k) {
     MotionState& st = others.emplace_back();
     st.motion = motions[k];
-    Result<SceneSpec> posed = SceneInMotion(scene, static_cast<int>(k));
+    Result<SceneSpec> posed = scene.bodies.empty() ? SceneInMotion(scene, static_cast<int>(k)) : SceneOnBody(scene, static_cast<int>(k));
     if (!posed.ok()) return posed.status();
     st.scene = std::move(posed).value();
     Result<GarmentModel> mk = BuildGarmentModel(st.scene);
@@ -280,11 +300,14 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
         // docs/MODEL.md, "Motions with roles": each motion's sensitivities over its fully reinforced
         // density, weighted, added for resisted motions and subtracted for allowed ones. With one motion
         // in the objective its sensitivities rank as they are (a scale does not change the ranking).
-        if (full_density > 0) s *= motions[0].weight / full_density;
-        for (MotionState& st : others) {
+        // A range of bodies: the same, each body a resisted motion (weighed by the worst: CaseWeights).
+        const std::vector<double> w = CaseWeights(scene, motions, past.back());
+        if (full_density > 0) s *= w[0] / full_density;
+        for (size_t k = 1; k < motions.size(); ++k) {
+          MotionState& st = others[k - 1];
           if (!(st.motion.weight > 0) || !(st.full_density > 0)) continue;
           if (st.density.size() != nf) st.sys->FaceDensities(st.x, &st.density, nullptr);
-          const double c = (st.motion.role == MotionRole::kAllow ? -1.0 : 1.0) * st.motion.weight / st.full_density;
+          const double c = (st.motion.role == MotionRole::kAllow ? -1.0 : 1.0) * w[k] / st.full_density;
           s += c * Sensitivities(st.density, design, scene.reinforced.youngs_modulus_Pa, scene.cloth.youngs_modulus_Pa, settings.d_min,
                                  settings.penalty);
         }

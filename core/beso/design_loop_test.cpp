@@ -2,6 +2,7 @@
 // the reinforced energy density rises as material goes, and the run is deterministic.
 #include "core/beso/design_loop.h"
 #include "core/scene/builtin_scenes.h"
+#include "core/scene/simulate.h"
 #include "core/scene/shapes.h"
 
 #include <cmath>
@@ -374,6 +375,109 @@ TEST(DesignLoopMotions, BadMotionsAreRefusedByName) {
   refused(twice, "motion 'flex': two motions have this name");
   SceneSpec own_mesh = *PullTestScene("all_cloth");
   own_mesh.motions = good.motions;
+  refused(own_mesh, "not cut from a body");
+}
+
+// A limb of radius `radius_m` whose joint flexes by 0.8 rad, meshed with rings every 1.5 cm whatever
+// its radius, so limbs of other radii (same `around`) share its topology.
+BodyMotion FlexingLimb(double radius_m, int around = 16, std::vector<double>* axial = nullptr) {
+  LimbShape shape;
+  shape.radius_m = radius_m;
+  shape.around = around;
+  shape.spacing_m = 0.015;
+  const TriMesh rest = LimbRest(shape, axial);
+  return BodyMotion{rest.faces, rest.vertices, LimbPosed(shape, rest.vertices, 0.8), {}};
+}
+
+// The flexing sleeve on a range of limbs (name, radius, weight): the first is the scene's own.
+SceneSpec SleeveForBodies(const std::vector<std::tuple<std::string, double, double>>& bodies, BodyObjective objective) {
+  std::vector<double> axial;
+  SceneSpec s;
+  s.name = "sleeve_for_bodies";
+  s.motion = FlexingLimb(std::get<1>(bodies.front()), 16, &axial);
+  const Faces& faces = s.motion->faces;
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    double lo = 1e300, hi = -1e300;
+    for (int k = 0; k < 3; ++k) lo = std::min(lo, axial[faces(f, k)]), hi = std::max(hi, axial[faces(f, k)]);
+    if (lo < -0.09 || hi > 0.09) continue;
+    s.garment_region.push_back(static_cast<int>(f));
+    if (lo < -0.07 || hi > 0.07) s.attachment_body_faces.push_back(static_cast<int>(f));
+  }
+  s.effects.contact = ContactModel::kUnilateral;
+  s.effects.attachments = true;
+  const Status st = CutGarmentFromMotion(&s);
+  EXPECT_TRUE(st.ok()) << st.message();
+  for (const auto& [name, radius, weight] : bodies) s.bodies.push_back({name, weight, FlexingLimb(radius)});
+  s.body_objective = objective;
+  return s;
+}
+
+// A design for a range of bodies simulates every body on its own garment rest shape each iteration and
+// reports each by name: iteration 0 is each body's fully reinforced garment (what EvaluateOnBodies
+// gives), a thicker limb stretches its sleeve more, and bodies of weight 0 change no design (the run is
+// the scene's own body's alone, bit for bit).
+TEST(DesignLoopBodies, EveryBodyIsSimulatedOnItsOwnGarmentAndReportedByName) {
+  const SceneSpec sizes = SleeveForBodies({{"M", 0.04, 1.0}, {"S", 0.036, 1.0}, {"L", 0.044, 1.0}}, BodyObjective::kMean);
+  const Result<std::vector<BesoIteration>> run = RunBeso(sizes, Quick(5));
+  ASSERT_TRUE(run.ok()) << run.message();
+  const Result<std::vector<BodyEvaluation>> full = EvaluateOnBodies(sizes, std::vector<uint8_t>(sizes.garment.faces.rows(), kReinforced));
+  ASSERT_TRUE(full.ok()) << full.message();
+  ASSERT_EQ(full->size(), 3u);
+  for (const BesoIteration& it : *run) {
+    ASSERT_EQ(it.motions.size(), 3u);
+    for (size_t b = 0; b < 3; ++b) {
+      EXPECT_EQ(it.motions[b].name, (*full)[b].name);
+      EXPECT_EQ(it.motions[b].role, MotionRole::kResist);
+      EXPECT_GT(it.motions[b].reinforced_energy_J, 0.0);
+    }
+    EXPECT_EQ(it.motions[0].energy_J, it.energy_J) << "the iteration's own figures are the scene's own body's";
+  }
+  const BesoIteration& first = run->front();
+  for (size_t b = 0; b < 3; ++b) {
+    EXPECT_EQ(first.motions[b].reinforced_energy_J, (*full)[b].full.reinforced_energy_J) << (*full)[b].name;
+    EXPECT_EQ(first.motions[b].density_ratio, 1.0);
+  }
+  EXPECT_LT(first.motions[1].reinforced_density_J_per_m2, first.motions[0].reinforced_density_J_per_m2);
+  EXPECT_GT(first.motions[2].reinforced_density_J_per_m2, first.motions[0].reinforced_density_J_per_m2);
+  EXPECT_GT(run->back().motions[1].density_ratio, 1.0);
+  EXPECT_GT(run->back().motions[2].density_ratio, 1.0);
+
+  SceneSpec own = sizes;
+  own.bodies.clear();
+  const SceneSpec reported = SleeveForBodies({{"M", 0.04, 1.0}, {"S", 0.036, 0.0}, {"L", 0.044, 0.0}}, BodyObjective::kWorst);
+  const Result<std::vector<BesoIteration>> a = RunBeso(own, Quick(5)), b = RunBeso(reported, Quick(5));
+  ASSERT_TRUE(a.ok()) << a.message();
+  ASSERT_TRUE(b.ok()) << b.message();
+  ExpectSameRun(*a, *b);
+  EXPECT_EQ(b->back().motions[1].weight, 0.0);
+  EXPECT_GT(b->back().motions[1].reinforced_energy_J, 0.0) << "a body of weight 0 is simulated";
+}
+
+// Bad bodies are refused before any simulation, the message naming the body.
+TEST(DesignLoopBodies, BadBodiesAreRefusedByName) {
+  const SceneSpec good = SleeveForBodies({{"M", 0.04, 1.0}, {"L", 0.044, 1.0}}, BodyObjective::kMean);
+  auto refused = [&](SceneSpec scene, const std::string& words) {
+    const Result<std::vector<BesoIteration>> run = RunBeso(scene, Quick(2));
+    ASSERT_FALSE(run.ok());
+    EXPECT_NE(run.message().find(words), std::string::npos) << run.message();
+  };
+  SceneSpec topology = good;
+  topology.bodies[1].pose = FlexingLimb(0.044, 20);
+  refused(topology, "body 'L': its mesh has another topology");
+  SceneSpec negative = good;
+  negative.bodies[1].weight = -1;
+  refused(negative, "body 'L': weight -1");
+  SceneSpec twice = good;
+  twice.bodies[1].name = "M";
+  refused(twice, "body 'M': two bodies have this name");
+  SceneSpec not_own = good;
+  std::swap(not_own.bodies[0], not_own.bodies[1]);
+  refused(not_own, "body 'L': the first body must be the scene's own");
+  SceneSpec with_motions = good;
+  with_motions.motions = {{"flex", MotionRole::kResist, 1.0, *good.motion}};
+  refused(with_motions, "lists bodies and motions");
+  SceneSpec own_mesh = *PullTestScene("all_cloth");
+  own_mesh.bodies = good.bodies;
   refused(own_mesh, "not cut from a body");
 }
 

@@ -42,9 +42,8 @@ BodyPrimitive MakePrimitive(int bone, const V3& a, const V3& b, double r1a, doub
   return p;
 }
 
-}  // namespace
-
-Result<ParametricBody> BuildParametricBody(const BodyMeasurements& m) {
+// The skeleton and the primitives made to `m` (no mesh, no skinning weights).
+Result<ParametricBody> BuildSkeleton(const BodyMeasurements& m) {
   if (Status st = ValidateMeasurements(m); !st.ok()) return st;
   ParametricBody body;
   body.measurements = m;
@@ -121,6 +120,17 @@ Result<ParametricBody> BuildParametricBody(const BodyMeasurements& m) {
     prims.push_back(MakePrimitive(foot, V3(j[foot].x(), 0.045 * s, j[foot].z() - 0.03 * s),
                                   V3(j[foot].x() * 1.05, 0.03 * s, j[foot].z() + 0.16 * s), 0.035 * s, 0.04 * s, 0.045 * s, 0.028 * s));
   }
+  return body;
+}
+
+}  // namespace
+
+Result<ParametricBody> BuildParametricBody(const BodyMeasurements& m) {
+  Result<ParametricBody> skeleton = BuildSkeleton(m);
+  if (!skeleton.ok()) return skeleton.status();
+  ParametricBody body = std::move(skeleton).value();
+  const double s = m.height_m / 1.70;
+  const auto& prims = body.primitives;
 
   // Rest surface.
   const JointAngles rest_angles = RestAngles();
@@ -212,6 +222,63 @@ Result<ParametricBody> BuildParametricBody(const BodyMeasurements& m) {
     for (size_t k = 0; k < w.size(); ++k) out[k] = {w[k].second, w[k].first / total};
     body.dominant_bone[v] = w[0].second;
   }
+  return body;
+}
+
+Result<ParametricBody> ParametricBodyLike(const ParametricBody& like, const BodyMeasurements& m) {
+  Result<ParametricBody> skeleton = BuildSkeleton(m);
+  if (!skeleton.ok()) return skeleton.status();
+  ParametricBody body = std::move(skeleton).value();
+  if (body.primitives.size() != like.primitives.size())
+    return Status::Error("the body to take the mesh from has " + std::to_string(like.primitives.size()) + " primitives, this one " +
+                         std::to_string(body.primitives.size()));
+  // Each bone's map from `like` to `body`: along the bone's primitive scaled by the ratio of its
+  // lengths, across it by the ratio of its mean radii (a clavicle moves with the chest's primitive).
+  std::array<int, kNumBones> primitive_of;
+  primitive_of.fill(-1);
+  for (size_t i = 0; i < body.primitives.size(); ++i) primitive_of[body.primitives[i].bone] = static_cast<int>(i);
+  primitive_of[kClavicleL] = primitive_of[body.parent[kClavicleL]];
+  primitive_of[kClavicleR] = primitive_of[body.parent[kClavicleR]];
+  auto mean_radius = [](const BodyPrimitive& p) { return 0.25 * (p.r1_a + p.r2_a + p.r1_b + p.r2_b) + 0.5 * p.mid_bulge_m; };
+  auto carry = [&](int bone, const V3& x) -> V3 {
+    const BodyPrimitive& from = like.primitives[primitive_of[bone]];
+    const BodyPrimitive& to = body.primitives[primitive_of[bone]];
+    const double from_length = (from.b - from.a).norm(), to_length = (to.b - to.a).norm();
+    const V3 from_axis = (from.b - from.a) / from_length, to_axis = (to.b - to.a) / to_length;
+    const V3 d = x - from.a;
+    const double t = d.dot(from_axis);
+    V3 across = d - t * from_axis;
+    across -= across.dot(to_axis) * to_axis;
+    return to.a + t * (to_length / from_length) * to_axis + (mean_radius(to) / mean_radius(from)) * across;
+  };
+  const Eigen::Index nv = like.rest.vertices.rows();
+  body.rest.faces = like.rest.faces;
+  body.rest.vertices.resize(nv, 3);
+  body.weights = like.weights;
+  body.dominant_bone = like.dominant_bone;
+  const PosedField field(body, RestAngles());
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index v = 0; v < nv; ++v) {
+    const V3 x = like.rest.vertices.row(v).transpose();
+    V3 y = V3::Zero();
+    for (const auto& [bone, w] : like.weights[v])
+      if (w > 0) y += w * carry(bone, x);
+    body.rest.vertices.row(v) = field.Project(y).transpose();
+  }
+  const auto nbrs = VertexNeighbors(body.rest.faces, static_cast<int>(nv));
+  std::vector<int> all(nv);
+  std::iota(all.begin(), all.end(), 0);
+  field.Relax(&body.rest.vertices, nbrs, all, 10);
+  if (Status st = ValidateMesh(body.rest.vertices, body.rest.faces, "parametric body with the mesh of another"); !st.ok()) return st;
+  std::vector<int> faces(body.rest.faces.rows());
+  std::iota(faces.begin(), faces.end(), 0);
+  // Faces turned into the body (a normal against the field's gradient): no more than on `like` itself.
+  const std::vector<int> folded = field.FoldedFaces(body.rest.vertices, body.rest.faces, faces, 0.0);
+  const size_t folded_before = PosedField(like, RestAngles()).FoldedFaces(like.rest.vertices, like.rest.faces, faces, 0.0).size();
+  if (folded.size() > folded_before)
+    return Status::Error("the parametric body's mesh carried to these measurements folds over at " + std::to_string(folded.size()) +
+                         " faces (the first: face " + std::to_string(folded.front()) + "; the mesh's own body: " +
+                         std::to_string(folded_before) + "); the measurements are too far from the mesh's own");
   return body;
 }
 

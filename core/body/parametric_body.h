@@ -104,6 +104,16 @@ struct ParametricBody {
 // Builds the skeleton, the implicit body and the rest mesh. Errors name the offending measurement.
 Result<ParametricBody> BuildParametricBody(const BodyMeasurements& m = {});
 
+// The parametric body made to `m` with the rest mesh of `like` (its faces and skinning weights), so
+// that the two bodies and all their poses share one mesh topology (a garment cut from one region of
+// faces is the same garment on both): each rest vertex of `like` is carried bone by bone (along each
+// bone's primitive by the ratio of its lengths, across by the ratio of its radii, blended with the
+// skinning weights), projected onto the new implicit body and relaxed along it, as the rest mesh of
+// BuildParametricBody is. Errors: bad measurements, a carried mesh that folds over (measurements far
+// from like's). The parametric body's own rest mesh changes with the measurements (surface nets on a
+// grid), so bodies of other sizes that must share a garment are made with this.
+Result<ParametricBody> ParametricBodyLike(const ParametricBody& like, const BodyMeasurements& m);
+
 // Rigid motion of every bone from rest to the pose `angles` (rest values where a name is missing).
 std::array<Eigen::Isometry3d, kNumBones> BoneTransforms(const ParametricBody& body, const JointAngles& angles);
 

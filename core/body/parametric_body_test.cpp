@@ -57,6 +57,30 @@ TEST(ParametricBody, MadeToMeasure) {
   EXPECT_TRUE(CheckClosedOrientedManifold(b->rest.faces, "body").ok());
 }
 
+// A body of another size made with the default body's mesh (ParametricBodyLike): the same faces, and
+// the girths, height and volume of its own measurements (the default body's own mesh for them would
+// have other faces: surface nets on a grid).
+TEST(ParametricBody, ABodyOfAnotherSizeKeepsTheMeshTopology) {
+  const ParametricBody& b = Body();
+  BodyMeasurements m = b.measurements;
+  for (double* g : {&m.chest_circumference_m, &m.waist_circumference_m, &m.hip_circumference_m, &m.upper_arm_circumference_m,
+                    &m.forearm_circumference_m, &m.thigh_circumference_m, &m.calf_circumference_m})
+    *g *= 1.1;
+  for (double* l : {&m.height_m, &m.upper_arm_length_m, &m.forearm_length_m, &m.thigh_length_m, &m.shank_length_m}) *l *= 1.1;
+  const Result<ParametricBody> large = ParametricBodyLike(b, m);
+  ASSERT_TRUE(large.ok()) << large.message();
+  EXPECT_TRUE(large->rest.faces == b.rest.faces);
+  EXPECT_EQ(large->measurements.height_m, m.height_m);
+  EXPECT_TRUE(ValidateMesh(large->rest.vertices, large->rest.faces, "body").ok());
+  EXPECT_NEAR(LimbGirth(*large, {}, large->rest.vertices, kThighR, 0.4), m.thigh_circumference_m, 0.05 * m.thigh_circumference_m);
+  EXPECT_NEAR(LimbGirth(*large, {}, large->rest.vertices, kUpperArmL, 0.5), m.upper_arm_circumference_m, 0.05 * m.upper_arm_circumference_m);
+  const double height = large->rest.vertices.col(1).maxCoeff() - large->rest.vertices.col(1).minCoeff();
+  EXPECT_NEAR(height, m.height_m, 0.03 * m.height_m);
+  // Volume grows as girth^2 x height: 1.1^3.
+  EXPECT_NEAR(EnclosedVolume(large->rest.vertices, large->rest.faces) / EnclosedVolume(b.rest.vertices, b.rest.faces), 1.331, 0.05);
+  EXPECT_TRUE(SelfIntersections(large->rest.vertices, large->rest.faces, 1).empty());
+}
+
 TEST(ParametricBody, BadMeasurementsAndAnglesAreNamed) {
   BodyMeasurements m;
   m.thigh_circumference_m = 2.0;

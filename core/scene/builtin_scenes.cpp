@@ -126,6 +126,7 @@ std::vector<std::string> BuiltinSceneNames() {
   std::vector<std::string> names;
   for (const PaperMotion& m : PaperMotions()) names.push_back(m.name);
   for (const BraceScene& b : BraceScenes()) names.push_back(b.name);
+  for (const SizedScene& z : SizedScenes()) names.push_back(z.name);
   for (const char* n : {"sleeve_on_limb", "pull_test_all_cloth", "pull_test_all_reinforced", "pull_test_line", "pull_test_x"})
     names.push_back(n);
   return names;
@@ -137,7 +138,8 @@ std::vector<BuiltinSceneInfo> BuiltinSceneInfos() {
   const std::map<std::string, std::pair<int, double>> size = {
       {"arm_flexion", {13936, 0.04731}}, {"arm_extension", {13936, 0.04715}}, {"knee_flexion", {5200, 0.08252}},
       {"knee_extension", {5200, 0.08269}}, {"slouch", {33368, 0.4959}}, {"crouch", {19716, 0.3083}}, {"lunge", {19716, 0.3083}},
-      {"arm_brace", {13936, 0.04715}}, {"knee_brace", {5200, 0.08264}}, {"posture_shirt", {33368, 0.4959}}};
+      {"arm_brace", {13936, 0.04715}}, {"knee_brace", {5200, 0.08264}}, {"posture_shirt", {33368, 0.4959}},
+      {"knee_flexion_sizes", {5200, 0.08252}}, {"knee_flexion_sizes_mean", {5200, 0.08252}}};
   std::vector<BuiltinSceneInfo> out;
   for (const PaperMotion& m : PaperMotions()) {
     const auto it = size.find(m.name);
@@ -151,10 +153,18 @@ std::vector<BuiltinSceneInfo> BuiltinSceneInfos() {
     out.push_back({b.name, b.garment, b.description, b.budget, frames, b.subdivisions, true, it == size.end() ? 0 : it->second.first,
                    it == size.end() ? 0 : it->second.second});
   }
+  for (const SizedScene& z : SizedScenes())
+    for (const PaperMotion& m : PaperMotions())
+      if (m.name == z.motion) {
+        const auto it = size.find(z.name);
+        out.push_back({z.name, m.garment, z.description, m.budget, m.frames, m.subdivisions, true, it == size.end() ? 0 : it->second.first,
+                       it == size.end() ? 0 : it->second.second});
+      }
   for (const std::string& n : BuiltinSceneNames()) {
     bool paper = false;
     for (const PaperMotion& m : PaperMotions()) paper |= m.name == n;
     for (const BraceScene& b : BraceScenes()) paper |= b.name == n;
+    for (const SizedScene& z : SizedScenes()) paper |= z.name == n;
     if (paper) continue;
     BuiltinSceneInfo info{n, "", "", 1.0, 0, 0, false};
     info.description = n.rfind("pull_test", 0) == 0 ? "pull test of the paper's 2D validation" : "sleeve on a capsule limb (simulator checks)";
@@ -182,6 +192,12 @@ Result<SceneSpec> BuiltinScene(const std::string& name, const BodyMeasurements& 
       if (!body.ok()) return body.status();
       return BraceSceneOn(*body, b);
     }
+  for (const SizedScene& z : SizedScenes())
+    if (z.name == name) {
+      Result<ParametricBody> body = BuildParametricBody(measurements);
+      if (!body.ok()) return body.status();
+      return SizedSceneOn(*body, z);
+    }
   return Status::Error("body measurements apply only to the paper's scenes on the parametric body, not to '" + name + "'");
 }
 
@@ -197,6 +213,12 @@ Result<SceneSpec> BuiltinScene(const std::string& name) {
       Result<const ParametricBody*> body = DefaultParametricBody();
       if (!body.ok()) return body.status();
       return BraceSceneOn(**body, b);
+    }
+  for (const SizedScene& z : SizedScenes())
+    if (z.name == name) {
+      Result<const ParametricBody*> body = DefaultParametricBody();
+      if (!body.ok()) return body.status();
+      return SizedSceneOn(**body, z);
     }
   if (name == "sleeve_on_limb") return SleeveOnLimbScene({});
   const std::string prefix = "pull_test_";

@@ -263,4 +263,61 @@ Result<SceneSpec> PaperScene(const ParametricBody& body, const PaperMotion& moti
   return s;
 }
 
+std::vector<SizedScene> SizedScenes() {
+  const std::vector<BodySize> sml = {{"M", 1.0, 1.0}, {"S", 0.9, 0.9}, {"L", 1.1, 1.1}};
+  std::vector<SizedScene> out;
+  out.push_back({"knee_flexion_sizes", "knee_flexion",
+                 "knee_flexion's sleeve designed for three sizes at once (S, M, L: girths, height and limb lengths 0.9, 1, 1.1 times "
+                 "the body's), for the worst of them.",
+                 sml, BodyObjective::kWorst});
+  out.push_back({"knee_flexion_sizes_mean", "knee_flexion",
+                 "knee_flexion_sizes for the mean of the three sizes' density ratios.", sml, BodyObjective::kMean});
+  return out;
+}
+
+BodyMeasurements ScaledMeasurements(const BodyMeasurements& m, const BodySize& size) {
+  BodyMeasurements out = m;
+  for (double* g : {&out.chest_circumference_m, &out.waist_circumference_m, &out.hip_circumference_m, &out.upper_arm_circumference_m,
+                    &out.forearm_circumference_m, &out.thigh_circumference_m, &out.calf_circumference_m})
+    *g *= size.girth_scale;
+  for (double* l : {&out.height_m, &out.upper_arm_length_m, &out.forearm_length_m, &out.thigh_length_m, &out.shank_length_m})
+    *l *= size.height_scale;
+  return out;
+}
+
+Result<SceneSpec> SizedSceneOn(const ParametricBody& body, const SizedScene& sized) {
+  const PaperMotion* motion = nullptr;
+  static const std::vector<PaperMotion> motions = PaperMotions();
+  for (const PaperMotion& m : motions)
+    if (m.name == sized.motion) motion = &m;
+  if (!motion) return Status::Error(sized.name + ": no paper motion '" + sized.motion + "'");
+  Result<SceneSpec> scene = PaperScene(body, *motion);
+  if (!scene.ok()) return scene.status();
+  SceneSpec s = std::move(scene).value();
+  s.name = sized.name;
+  s.description = sized.description;
+  s.body_objective = sized.objective;
+  const std::vector<JointAngles> keys = MotionKeyframes(motion->rest, motion->pose, motion->frames);
+  for (size_t i = 0; i < sized.sizes.size(); ++i) {
+    const BodySize& size = sized.sizes[i];
+    SceneBody b;
+    b.name = size.name;
+    if (i == 0) {
+      b.pose = *s.motion;
+    } else {
+      Result<ParametricBody> other = ParametricBodyLike(body, ScaledMeasurements(body.measurements, size));
+      if (!other.ok()) return other.status().WithContext(sized.name + ", body '" + size.name + "': ");
+      Result<std::vector<Positions>> poses = PoseSequence(*other, keys);
+      if (!poses.ok()) return poses.status().WithContext(sized.name + ", body '" + size.name + "': ");
+      b.pose.faces = other->rest.faces;
+      b.pose.rest = (*poses)[0];
+      b.pose.deformed = poses->back();
+      b.pose.frames.assign(poses->begin() + 1, poses->end());
+    }
+    s.bodies.push_back(std::move(b));
+  }
+  KGD_RETURN_IF_ERROR(ValidateSceneBodies(s));
+  return s;
+}
+
 }  // namespace kgd

@@ -69,4 +69,26 @@ struct BraceScene {
 std::vector<BraceScene> BraceScenes();
 Result<SceneSpec> BraceSceneOn(const ParametricBody& body, const BraceScene& brace);
 
+// Scenes over a range of bodies (docs/MODEL.md, "Range of bodies"): one paper motion performed by
+// the parametric body and by bodies of other sizes made with its mesh (ParametricBodyLike), so the
+// garment is the same on each.
+struct BodySize {
+  std::string name;
+  double girth_scale = 1.0;   // every circumference
+  double height_scale = 1.0;  // the height and every limb length
+};
+struct SizedScene {
+  std::string name;
+  std::string motion;         // a PaperMotions() name
+  std::string description;
+  std::vector<BodySize> sizes;  // sizes[0]: the body the scene is built on (scales 1)
+  BodyObjective objective = BodyObjective::kMean;
+};
+// knee_flexion_sizes (the worst size) and knee_flexion_sizes_mean.
+std::vector<SizedScene> SizedScenes();
+// `m` with every circumference times girth_scale, the height and limb lengths times height_scale.
+BodyMeasurements ScaledMeasurements(const BodyMeasurements& m, const BodySize& size);
+// The sized scene on `body` (sizes[0]) and bodies of its other sizes made with its mesh.
+Result<SceneSpec> SizedSceneOn(const ParametricBody& body, const SizedScene& sized);
+
 }  // namespace kgd

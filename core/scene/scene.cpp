@@ -100,7 +100,20 @@ Result<MotionRole> MotionRoleFromName(const std::string& name, const std::string
   return Status::Error(what + ": role '" + name + "' is neither \"resist\" nor \"allow\"");
 }
 
+const char* ToString(BodyObjective objective) { return objective == BodyObjective::kWorst ? "worst" : "mean"; }
+
+Result<BodyObjective> BodyObjectiveFromName(const std::string& name, const std::string& what) {
+  if (name == "mean") return BodyObjective::kMean;
+  if (name == "worst") return BodyObjective::kWorst;
+  return Status::Error(what + ": '" + name + "' is neither \"mean\" nor \"worst\"");
+}
+
 std::vector<SceneMotion> MotionsOf(const SceneSpec& s) {
+  if (!s.bodies.empty()) {
+    std::vector<SceneMotion> out;
+    for (const SceneBody& b : s.bodies) out.push_back({b.name, MotionRole::kResist, b.weight, b.pose});
+    return out;
+  }
   if (!s.motions.empty()) return s.motions;
   SceneMotion m;
   m.name = s.name;
@@ -138,6 +151,53 @@ Status ValidateSceneMotions(const SceneSpec& s) {
   if (!(first.pose.deformed.rows() == own.deformed.rows() && first.pose.deformed == own.deformed))
     return Status::Error("motion '" + first.name + "': the first motion's deformed pose must be the scene's own (body.deformed)");
   return Status::Ok();
+}
+
+Status ValidateSceneBodies(const SceneSpec& s) {
+  if (s.bodies.empty()) return Status::Ok();
+  if (!s.motion || s.garment_from_body.rows() == 0)
+    return Status::Error("bodies: scene '" + s.name + "' lists bodies, but its garment is not cut from a body (garment.region)");
+  if (!s.motions.empty())
+    return Status::Error("bodies: scene '" + s.name + "' lists bodies and motions; a design weighs several motions of one body or one motion of several bodies");
+  const BodyMotion& own = *s.motion;
+  for (size_t i = 0; i < s.bodies.size(); ++i) {
+    const SceneBody& b = s.bodies[i];
+    const std::string what = "body '" + b.name + "'";
+    if (b.name.empty()) return Status::Error("bodies[" + std::to_string(i) + "]: a body needs a name");
+    for (size_t j = 0; j < i; ++j)
+      if (s.bodies[j].name == b.name) return Status::Error(what + ": two bodies have this name");
+    if (!(b.weight >= 0 && std::isfinite(b.weight)))
+      return Status::Error(what + ": weight " + Number(b.weight) + " must be finite and >= 0");
+    const BodyMotion& p = b.pose;
+    if (p.rest.rows() != own.rest.rows() || p.faces.rows() != own.faces.rows() || !(p.faces == own.faces))
+      return Status::Error(what + ": its mesh has another topology (" + std::to_string(p.rest.rows()) + " vertices, " +
+                           std::to_string(p.faces.rows()) + " faces; the scene's body " + std::to_string(own.rest.rows()) + " and " +
+                           std::to_string(own.faces.rows()) + " with the same faces): the bodies must share one mesh topology, so that "
+                           "the garment is the same on each");
+    if (p.deformed.rows() != own.rest.rows())
+      return Status::Error(what + ": its deformed pose has " + std::to_string(p.deformed.rows()) + " vertices, the rest pose " + std::to_string(own.rest.rows()));
+    for (size_t k = 0; k < p.frames.size(); ++k)
+      if (p.frames[k].rows() != own.rest.rows()) return Status::Error(what + ": frame " + std::to_string(k + 1) + " has another vertex count than the rest pose");
+  }
+  const SceneBody& first = s.bodies.front();
+  if (!(first.weight > 0))
+    return Status::Error("body '" + first.name + "': the first body is the scene's own and must have a weight > 0 (weight " + Number(first.weight) + ")");
+  if (!(first.pose.rest == own.rest) || !(first.pose.deformed == own.deformed))
+    return Status::Error("body '" + first.name + "': the first body must be the scene's own (its rest and deformed poses)");
+  return Status::Ok();
+}
+
+Result<SceneSpec> SceneOnBody(const SceneSpec& spec, int b) {
+  if (b == 0) return spec;
+  const SceneBody& body = spec.bodies.at(b);
+  const std::string what = "body '" + body.name + "'";
+  SceneSpec s = spec;
+  s.motion = body.pose;
+  KGD_RETURN_IF_ERROR(CutGarmentFromMotion(&s, what + ": garment.region", what + ": attachments.body_faces"));
+  if (!(s.garment.faces.rows() == spec.garment.faces.rows() && s.garment.faces == spec.garment.faces))
+    return Status::Error(what + ": the garment cut from it has other faces than the scene's");
+  s.design = spec.design;
+  return s;
 }
 
 Result<SceneSpec> SceneInMotion(const SceneSpec& spec, int m) {

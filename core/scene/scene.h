@@ -33,6 +33,25 @@ struct SceneMotion {
   BodyMotion pose;
 };
 
+// One body of a scene designed for a range of bodies (docs/MODEL.md, "Range of bodies"): the scene's
+// motion performed by another body whose mesh has the scene body's topology (the same faces), so that
+// the garment cut from the scene's region is the same garment (faces) on every body, with its own rest
+// shape. Parametric bodies of other measurements get the topology with ParametricBodyLike.
+struct SceneBody {
+  std::string name;
+  double weight = 1.0;  // >= 0; 0: simulated and reported, no part of the objective
+  BodyMotion pose;      // rest, deformed and frames of this body; faces: the scene body's
+};
+
+// What a design for a range of bodies weighs: the weighted mean of the bodies' density ratios, or
+// the worst body (a soft minimum: each iteration weights the bodies by exp(-ratio / T), T =
+// kWorstBodyTemperature, with the ratios of the iteration before).
+enum class BodyObjective { kMean, kWorst };
+inline constexpr double kWorstBodyTemperature = 0.05;
+const char* ToString(BodyObjective objective);  // "mean", "worst"
+// "mean" / "worst"; else an error naming `what`.
+Result<BodyObjective> BodyObjectiveFromName(const std::string& name, const std::string& what);
+
 // A mirror plane (garment.symmetry): through `point_m` with unit `normal`. The default is the
 // parametric body's sagittal plane, x = 0 (core/body/parametric_body.h: +x is the body's left).
 // tolerance_m: how far a face's mirrored rest centroid may lie from its partner's; 0: twice the
@@ -85,10 +104,31 @@ struct SceneSpec {
   // own, named after the scene, resisted with weight 1. Else motions[0] is the scene's own motion
   // (its pose = `motion`) and must be resisted with a positive weight; the others share its rest pose.
   std::vector<SceneMotion> motions;
+
+  // The bodies a design weighs (a garment cut from the body, one motion). Empty: the scene's own body
+  // alone. Else bodies[0] is the scene's own (its pose = `motion`) with a positive weight; every other
+  // body performs the same motion with the scene body's faces, and the garment is cut from it by the
+  // same region, subdivisions and attachment faces.
+  std::vector<SceneBody> bodies;
+  BodyObjective body_objective = BodyObjective::kMean;
 };
 
 // The scene's motions as a design sees them: `motions`, or the scene's own as one resisted motion.
+// A scene of several bodies: one resisted motion per body (named after the body, its weight), so
+// that per-body figures travel as per-motion figures do.
 std::vector<SceneMotion> MotionsOf(const SceneSpec& spec);
+
+// Ok for a scene without `bodies`; else: a garment cut from the body, one motion, unique non-empty
+// names, finite weights >= 0 (the first > 0), the first body the scene's own, every body with the
+// scene body's faces and vertex count in every pose. The message names the body.
+Status ValidateSceneBodies(const SceneSpec& spec);
+
+// The scene on body b of `bodies` (0: the scene itself): its motion, body, field, the garment cut from
+// it by the scene's region (rest shape, on_body = initial, attachment anchors); the design kept.
+// Errors name the body (a garment of other faces than the scene's among them).
+// Precondition: ValidateSceneBodies(spec) is ok.
+Result<SceneSpec> SceneOnBody(const SceneSpec& spec, int b);
+
 
 // Ok for a scene without `motions`; else: a garment cut from the body, unique non-empty names,
 // finite weights >= 0, every pose over the scene's rest body (same topology and rest positions), the

@@ -617,6 +617,9 @@ nlohmann::ordered_json MaterialJson(const Material& m) {
 }  // namespace
 
 Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
+  if (s.bodies.size() > 1)
+    return Status::Error(s.name + ": a scene file holds one body, and this scene weighs " + std::to_string(s.bodies.size()) +
+                         " (its bodies run as the built-in scene: kgd design " + s.name + ")");
   if (s.motions.size() > 1)
     return Status::Error(s.name + ": a scene file holds one motion, and this scene weighs " + std::to_string(s.motions.size()) +
                          " (its motions with roles run as the built-in scene: kgd design " + s.name + ")");

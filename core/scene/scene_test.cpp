@@ -169,6 +169,18 @@ TEST(Scene, AFolderIsNotASceneFile) {
   EXPECT_GT(builtin->garment.faces.rows(), 0);
 }
 
+// A scene file holds one body: exporting a scene of several (knee_flexion_sizes) is refused, not written
+// with its own body alone.
+TEST(Scene, ASceneOfSeveralBodiesIsNotExportedAsOne) {
+  SceneSpec s = *PullTestScene("all_cloth");
+  s.bodies = {SceneBody{"M", 1.0, {}}, SceneBody{"L", 1.0, {}}};
+  const std::string dir = TempDir("bodies_export");
+  const Status st = ExportScene(s, dir);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("a scene file holds one body, and this scene weighs 2"), std::string::npos) << st.message();
+  EXPECT_FALSE(std::filesystem::exists(std::filesystem::path(dir) / "scene.json"));
+}
+
 TEST(Scene, PullTestDesignsHaveTheirPaperAreas) {
   for (const auto& [design, fraction] : std::vector<std::pair<std::string, double>>{{"line", 0.40}, {"x", 0.40}}) {
     auto s = PullTestScene(design);

@@ -1,6 +1,7 @@
 #include "core/scene/simulate.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 
 #include "core/sim/fold_barrier.h"
@@ -90,6 +91,32 @@ Result<std::vector<SimulationResult>> SimulateFrames(const SceneSpec& scene,
     if (!r.ok()) return r.status().WithContext("frame " + std::to_string(k + 1) + ": ");
     if (on_frame) on_frame(k, *r);
     out.push_back(std::move(r).value());
+  }
+  return out;
+}
+
+Result<std::vector<BodyEvaluation>> EvaluateOnBodies(const SceneSpec& scene, const std::vector<uint8_t>& design) {
+  if (static_cast<Eigen::Index>(design.size()) != scene.garment.faces.rows())
+    return Status::Error("the design has " + std::to_string(design.size()) + " faces, the garment of scene '" + scene.name + "' " +
+                         std::to_string(scene.garment.faces.rows()));
+  KGD_RETURN_IF_ERROR(ValidateSceneBodies(scene));
+  std::vector<BodyEvaluation> out;
+  const int bodies = std::max<int>(1, static_cast<int>(scene.bodies.size()));
+  for (int b = 0; b < bodies; ++b) {
+    Result<SceneSpec> on = SceneOnBody(scene, b);
+    if (!on.ok()) return on.status();
+    BodyEvaluation e;
+    e.name = scene.bodies.empty() ? scene.name : scene.bodies[b].name;
+    for (auto [d, result] : {std::pair{&design, &e.designed}, std::pair<const std::vector<uint8_t>*, SimulationResult*>{nullptr, &e.full}}) {
+      on->design = d ? *d : std::vector<uint8_t>(design.size(), kReinforced);
+      Result<SimulationResult> r = SimulateScene(*on);
+      if (!r.ok()) return r.status().WithContext("body '" + e.name + "': ");
+      if (!r->solve.at_equilibrium())
+        return Status::Error("body '" + e.name + "': the simulation did not converge (" + ToString(r->solve.status) + ")");
+      *result = std::move(r).value();
+    }
+    e.density_ratio = e.full.reinforced_density_J_per_m2 > 0 ? e.designed.reinforced_density_J_per_m2 / e.full.reinforced_density_J_per_m2 : 0.0;
+    out.push_back(std::move(e));
   }
   return out;
 }

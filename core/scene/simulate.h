@@ -47,6 +47,18 @@ Result<SimulationResult> SimulateScene(const SceneSpec& scene);
 Result<std::vector<SimulationResult>> SimulateFrames(const SceneSpec& scene,
                                                      const std::function<void(int, const SimulationResult&)>& on_frame = {});
 
+// A design on one body of a scene (docs/MODEL.md, "Range of bodies"): simulated in the motion's
+// deformed pose from the body, at the design and fully reinforced, as a design job's iteration 0 is.
+struct BodyEvaluation {
+  std::string name;
+  SimulationResult designed, full;
+  double density_ratio = 0;  // designed reinforced density / the fully reinforced garment's
+};
+// `design` (per garment face) on every body of `scene` (SceneOnBody), in order; a scene without
+// bodies: its own, named after the scene. Errors: a design of another face count, bodies that
+// ValidateSceneBodies refuses, a simulation that fails (named by body).
+Result<std::vector<BodyEvaluation>> EvaluateOnBodies(const SceneSpec& scene, const std::vector<uint8_t>& design);
+
 // Figures of a solved system at x (used by SimulateScene and by tests that drive GarmentSystem directly).
 // `reference` orients the faces for the inversion count: the garment on the body in the simulated pose
 // when the scene has one, else the initial positions.
