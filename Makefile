@@ -72,8 +72,9 @@ fuzz: setup
 	  tests/kgd_fuzz --source $(CURDIR) --kgd client/kgd --server server/kgd-server --worker worker/kgd-worker \
 	  --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
 
-# Every benchmark; the tables Google Benchmark measures are written into docs/PERFORMANCE.md between
-# their markers (bench/tables.py, scripts/generated_block.py), headed by command, date and `kgd machine`.
+# Every benchmark once (about 20 minutes on two cores); every table they measure is written into
+# docs/PERFORMANCE.md and docs/SCALING.md between its markers (bench/tables.py, scripts/generated_block.py),
+# headed by its command, date and `kgd machine`.
 bench: build
 	bash bench/run.sh $(BUILD)
 

@@ -7,7 +7,8 @@
 //   overhead  arm flexion (N iterations) through server + worker vs `kgd design` locally, wall time
 // Usage: service_benchmark [latency|overhead|all] [--scene S --iterations N --watchers W --pin (latency; sleeve_on_limb, 150, 100)]
 //                          [--arm-iterations N (overhead)] [--repeat R (both; 3; `all` runs latency once)]
-// Figures go to docs/PERFORMANCE.md with the command, the machine and the date.
+//                          [--json FILE: the figures as one JSON object, "kind": "service"]
+// `make bench` (bench/run.sh) writes them into docs/PERFORMANCE.md, "Design service" (bench/tables.py).
 #include <arpa/inet.h>
 #include <grpcpp/grpcpp.h>
 #include <netinet/in.h>
@@ -24,6 +25,7 @@
 #include <cstring>
 #include <filesystem>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -43,6 +45,20 @@ pid_t Spawn(const std::vector<std::string>& args, const std::string& log) {
 }
 
 using kgd::test_support::FreePort;
+
+// One latency run's figures (one line of output, one object of --json's "latency").
+struct Latency {
+  std::string scene;
+  bool pinned = false;
+  int watchers = 0;
+  size_t iterations = 0, deliveries = 0;
+  double p50_ms = 0, p99_ms = 0, max_ms = 0, worker_s_per_iteration = 0, server_cpu_ms_per_iteration = 0;
+};
+
+struct Overhead {
+  int iterations = 0, repeat = 0;
+  double local_s = 0, service_s = 0;
+};
 
 struct Service {
   std::string dir, address;
@@ -122,8 +138,8 @@ double Percentile(std::vector<double> v, double p) {
 }
 
 // One job of `iterations` sleeve iterations watched by `watchers` clients (spread over 10 connections).
-// Returns the worker's seconds per iteration (all but the first, cold, iteration).
-std::vector<double> LatencyRun(const std::string& scene, int watchers, int iterations, bool pin) {
+// Returns the worker's seconds per iteration (all but the first, cold, iteration); its figures go to `out`.
+std::vector<double> LatencyRun(const std::string& scene, int watchers, int iterations, bool pin, std::vector<Latency>* out) {
   if (pin) {  // this process (the watchers) beside the server on CPU 0
     cpu_set_t cpus;
     CPU_ZERO(&cpus);
@@ -174,16 +190,19 @@ std::vector<double> LatencyRun(const std::string& scene, int watchers, int itera
   double mean = 0;
   for (double s : iteration_s) mean += s;
   mean /= std::max<size_t>(1, iteration_s.size());
+  const Latency l{scene, pin, watchers, iteration_s.size() + 1, latency_ms.size(), Percentile(latency_ms, 0.5), Percentile(latency_ms, 0.99),
+                  Percentile(latency_ms, 1.0), mean, 1e3 * server_cpu / (iteration_s.size() + 1)};
   std::printf("latency  %s%s  watchers %3d  iterations %4zu  deliveries %6zu  p50 %7.2f ms  p99 %7.2f ms  max %7.2f ms  worker %.4f s/iteration  server CPU %.1f ms/iteration\n",
-              scene.c_str(), pin ? " (pinned)" : "", watchers, iteration_s.size() + 1, latency_ms.size(), Percentile(latency_ms, 0.5), Percentile(latency_ms, 0.99),
-              Percentile(latency_ms, 1.0), mean, 1e3 * server_cpu / (iteration_s.size() + 1));
+              scene.c_str(), pin ? " (pinned)" : "", watchers, l.iterations, l.deliveries, l.p50_ms, l.p99_ms, l.max_ms, l.worker_s_per_iteration,
+              l.server_cpu_ms_per_iteration);
   std::fflush(stdout);
+  out->push_back(l);
   return iteration_s;
 }
 
 // Local and service runs alternate `repeat` times; the fastest of each counts (this machine's timings
 // vary by 20 % from run to run).
-void OverheadRun(int iterations, int repeat) {
+Overhead OverheadRun(int iterations, int repeat) {
   const std::string dir = (fs::temp_directory_path() / "kgd_service_benchmark_local").string();
   fs::create_directories(dir);
   const std::string cmd = std::string(KGD_BINARY) + " design arm_flexion --json --iterations " + std::to_string(iterations) + " --out " + dir +
@@ -201,12 +220,34 @@ void OverheadRun(int iterations, int repeat) {
   }
   std::printf("overhead arm_flexion %d iterations, best of %d: kgd design %.2f s, server + worker %.2f s (%+.1f %%)\n", iterations + 1, repeat,
               local, remote, 100 * (remote / local - 1));
+  return {iterations + 1, repeat, local, remote};
+}
+
+// The figures as one JSON object for bench/tables.py; false when FILE cannot be written.
+bool WriteJson(const std::string& path, const std::vector<Latency>& latency, const Overhead* overhead) {
+  FILE* f = std::fopen(path.c_str(), "w");
+  if (!f) return false;
+  std::fprintf(f, "{\"kind\": \"service\", \"latency\": [");
+  for (size_t i = 0; i < latency.size(); ++i) {
+    const Latency& l = latency[i];
+    std::fprintf(f,
+                 "%s\n  {\"scene\": \"%s\", \"pinned\": %s, \"watchers\": %d, \"iterations\": %zu, \"deliveries\": %zu, \"p50_ms\": %.4f, "
+                 "\"p99_ms\": %.4f, \"max_ms\": %.4f, \"worker_s_per_iteration\": %.6f, \"server_cpu_ms_per_iteration\": %.4f}",
+                 i ? "," : "", l.scene.c_str(), l.pinned ? "true" : "false", l.watchers, l.iterations, l.deliveries, l.p50_ms, l.p99_ms, l.max_ms,
+                 l.worker_s_per_iteration, l.server_cpu_ms_per_iteration);
+  }
+  std::fprintf(f, "]");
+  if (overhead)
+    std::fprintf(f, ",\n \"overhead\": {\"scene\": \"arm_flexion\", \"iterations\": %d, \"repeat\": %d, \"local_s\": %.4f, \"service_s\": %.4f}",
+                 overhead->iterations, overhead->repeat, overhead->local_s, overhead->service_s);
+  std::fprintf(f, "}\n");
+  return std::fclose(f) == 0;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string what = "all", scene = "sleeve_on_limb";
+  std::string what = "all", scene = "sleeve_on_limb", json;
   int iterations = 150, arm_iterations = 20, watchers = 100, repeat = 3;
   bool pin = false;
   for (int i = 1; i < argc; ++i) {
@@ -216,24 +257,31 @@ int main(int argc, char** argv) {
     else if (a == "--watchers" && i + 1 < argc) watchers = std::atoi(argv[++i]);
     else if (a == "--repeat" && i + 1 < argc) repeat = std::atoi(argv[++i]);
     else if (a == "--scene" && i + 1 < argc) scene = argv[++i];
+    else if (a == "--json" && i + 1 < argc) json = argv[++i];
     else if (a == "--pin") pin = true;
     else if (a == "latency" || a == "overhead" || a == "all") what = a;
     else {
-      std::fprintf(stderr, "usage: service_benchmark [latency|overhead|all] [--iterations N] [--watchers W] [--scene S] [--pin] [--arm-iterations N] [--repeat R]\n");
+      std::fprintf(stderr, "usage: service_benchmark [latency|overhead|all] [--iterations N] [--watchers W] [--scene S] [--pin] [--arm-iterations N] [--repeat R] [--json FILE]\n");
       return 2;
     }
   }
+  std::vector<Latency> latency;
+  std::optional<Overhead> overhead;
   if (what != "overhead") {
     // Runs alternate (this machine's timings drift); the worker's median over all of them compares.
     std::vector<double> one, many;
     for (int r = 0; r < (what == "latency" ? repeat : 1); ++r) {
-      for (double s : LatencyRun(scene, 1, iterations, pin)) one.push_back(s);
-      for (double s : LatencyRun(scene, watchers, iterations, pin)) many.push_back(s);
+      for (double s : LatencyRun(scene, 1, iterations, pin, &latency)) one.push_back(s);
+      for (double s : LatencyRun(scene, watchers, iterations, pin, &latency)) many.push_back(s);
     }
     const double a = Percentile(one, 0.5), b = Percentile(many, 0.5);
     std::printf("worker   %s  median s/iteration over %zu and %zu iterations: 1 watcher %.4f, %d watchers %.4f (%+.1f %%)\n",
                 scene.c_str(), one.size(), many.size(), a, watchers, b, 100 * (b / a - 1));
   }
-  if (what != "latency") OverheadRun(arm_iterations, repeat);
+  if (what != "latency") overhead = OverheadRun(arm_iterations, repeat);
+  if (!json.empty() && !WriteJson(json, latency, overhead ? &*overhead : nullptr)) {
+    std::fprintf(stderr, "service_benchmark: cannot write %s\n", json.c_str());
+    return 1;
+  }
   return 0;
 }

@@ -1,11 +1,13 @@
-// Benchmarks of the web client (figures in docs/PERFORMANCE.md, "Web client"), against a real
+// Benchmarks of the web client, against a real
 // `kgd serve` on loopback:
 //   sse    worker report to Server-Sent Event: an arm-flexion job watched by W SSE connections at once;
 //          latency = arrival - the iteration's reportTimeS (the worker's clock; same machine)
 //   page   page ready: navigation to the jobs list and scene list shown, in headless Chromium
 //   view   a 28k-vertex iteration applied to the 3D view (geometry and colours updated and drawn), on a
 //          synthetic 28,000-vertex garment, in headless Chromium (software WebGL)
-//   node bench/web_benchmark.mjs [--kgd build/client/kgd] [--watchers 100] [--iterations 30]
+//   node bench/web_benchmark.mjs [--kgd build/client/kgd] [--watchers 100] [--iterations 30] [--pages 5] [--draws 10] [--json FILE]
+// --json: the figures as one JSON object ("kind": "web"), which `make bench` (bench/run.sh, bench/tables.py)
+// writes into docs/PERFORMANCE.md, "Web client".
 import { spawn } from 'node:child_process';
 import fs from 'node:fs';
 import http from 'node:http';
@@ -19,6 +21,10 @@ const arg = (name, fallback) => { const i = process.argv.indexOf(name); return i
 const kgd = arg('--kgd', path.join(repo, 'build/client/kgd'));
 const watchers = Number(arg('--watchers', 100));
 const iterations = Number(arg('--iterations', 30));
+const pages = Number(arg('--pages', 5));
+const draws = Number(arg('--draws', 10));
+const jsonPath = arg('--json', '');
+const result = { kind: 'web' };
 const { chromium } = await import(path.join(repo, 'client/web/node_modules/playwright-core/index.mjs'));
 
 const freePort = () => new Promise((resolve) => { const s = net.createServer(); s.listen(0, '127.0.0.1', () => { const p = s.address().port; s.close(() => resolve(p)); }); });
@@ -78,13 +84,15 @@ try {
     }));
   }
   await Promise.all(done);
+  result.sse = { scene: 'arm_flexion', watchers, connected: open, complete, failed, iterations, events: latencies.length,
+    p50_ms: percentile(latencies, 0.5), p99_ms: percentile(latencies, 0.99) };
   console.log(`sse: ${watchers} watchers (${open} connected, ${complete} saw every iteration, ${failed} failed), ${iterations} iterations: p50 ${percentile(latencies, 0.5).toFixed(1)} ms, p99 ${percentile(latencies, 0.99).toFixed(1)} ms over ${latencies.length} events`);
 
   // -- page --------------------------------------------------------------------------------------------
   const browser = await chromium.launch({ executablePath: process.env.KGD_CHROMIUM || '/usr/bin/chromium',
     args: ['--headless=new', '--no-sandbox', '--disable-gpu', '--enable-unsafe-swiftshader', '--use-angle=swiftshader', '--disable-background-networking', '--disable-component-update'] });
   const ready = [];
-  for (let k = 0; k < 5; ++k) {
+  for (let k = 0; k < pages; ++k) {
     const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
     const t0 = Date.now();
     await page.goto(base + '/');
@@ -92,13 +100,14 @@ try {
     ready.push(Date.now() - t0);
     await page.close();
   }
-  console.log(`page: ready in ${percentile(ready, 0.5)} ms (median of 5; min ${Math.min(...ready)}, max ${Math.max(...ready)})`);
+  result.page = { pages, median_ms: percentile(ready, 0.5), min_ms: Math.min(...ready), max_ms: Math.max(...ready) };
+  console.log(`page: ready in ${percentile(ready, 0.5)} ms (median of ${pages}; min ${Math.min(...ready)}, max ${Math.max(...ready)})`);
 
   // -- view --------------------------------------------------------------------------------------------
   const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
   await page.goto(base + '/');
   await page.waitForFunction(() => window.kgd);
-  const times = await page.evaluate(() => {
+  const times = await page.evaluate((draws) => {
     // A 140 x 200 grid rolled into a tube: 28,000 vertices, 55,720 faces.
     const nu = 140, nv = 200, n = nu * nv;
     const faces = [];
@@ -111,7 +120,7 @@ try {
     const view = window.kgd.view;
     view.setMeshes(f, null);
     const out = [];
-    for (let k = 0; k < 12; ++k) {
+    for (let k = 0; k < draws + 2; ++k) {
       const x = new Float32Array(3 * n), design = new Uint8Array(f.length / 3);
       for (let v = 0; v < n; ++v) {
         const t = (2 * Math.PI * (v % nu)) / nu, y = Math.floor(v / nu) * 0.002;
@@ -124,9 +133,11 @@ try {
       out.push(performance.now() - t0);
     }
     return out.slice(2);  // the first calls compile shaders
-  });
+  }, draws);
+  result.view = { vertices: 28000, faces: 55720, draws: times.length, median_ms: percentile(times, 0.5), max_ms: Math.max(...times) };
   console.log(`view: a 28,000-vertex iteration applied and drawn in ${percentile(times, 0.5).toFixed(1)} ms (median of ${times.length}; max ${Math.max(...times).toFixed(1)})`);
   await browser.close();
+  if (jsonPath) fs.writeFileSync(jsonPath, JSON.stringify(result, null, 1) + '\n');
 } finally {
   serve.kill('SIGTERM');
   await new Promise((r) => serve.on('exit', r));
