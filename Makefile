@@ -3,7 +3,7 @@ BUILD ?= build
 JOBS ?= 2
 CMAKE_FLAGS ?=
 
-.PHONY: setup build demo test images test-images acceptance stability test-sanitize bench study study-accuracy study-makehuman fuzz clean
+.PHONY: setup build demo test images test-images acceptance stability test-sanitize bench study study-roles study-accuracy study-makehuman fuzz clean
 
 setup:
 	bash scripts/setup.sh
@@ -78,10 +78,20 @@ fuzz: setup
 bench: build
 	bash bench/run.sh $(BUILD)
 
-# The design study of docs/RESULTS.md: all seven built-in scenes to the budget (about ten minutes);
-# Table 1 and the curves written into docs/RESULTS.md between their markers (scripts/study_tables.py).
+# The design study of docs/RESULTS.md (scripts/design_study.sh): the paper's seven built-in scenes to the
+# budget, then the three scenes with roles, each also resist-only, and the symmetric shirt;
+# it writes Table 1, the curves and the roles' results into docs/RESULTS.md and the job times into
+# docs/PERFORMANCE.md between their markers (scripts/study_tables.py). STUDY picks runs: `make study
+# STUDY=paper` (the seven, about ten minutes), `make study STUDY="knee_flexion knee_brace+resist-only"`;
+# a block is written only when its runs were all made by this study.
+STUDY ?= paper roles
+STUDY_COMMAND = make study$(if $(filter command line,$(origin STUDY)), STUDY="$(STUDY)")
 study: build
-	bash scripts/design_study.sh $(BUILD)
+	STUDY_COMMAND='$(STUDY_COMMAND)' bash scripts/design_study.sh $(BUILD) $(BUILD)/study $(STUDY)
+
+# The scenes with roles alone, with the single-motion jobs their time is compared with.
+study-roles: build
+	STUDY_COMMAND='make study-roles' bash scripts/design_study.sh $(BUILD) $(BUILD)/study roles arm_flexion knee_flexion slouch
 
 # What accuracy costs in time (docs/ACCURACY.md and its plots, generated): the arm-flexion design at seven
 # solver tolerances, two model variants, `precise` repeated, garment and body resolutions, three solver
