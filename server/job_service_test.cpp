@@ -2,7 +2,8 @@
 // lease expires and its job resumes on the next from the last acknowledged iteration; a reopened data
 // folder queues its leased jobs again with every acknowledged iteration; watchers get the stored
 // iterations, each new one and the end; each limit is hit and named; the doors' results (garment,
-// design file, energy per area, PLY) come from the service.
+// design file, energy per area, PLY) come from the service; a job's per-motion records are the design
+// file's wherever they are read.
 #include "server/job_service.h"
 
 #include <gtest/gtest.h>
@@ -450,6 +451,76 @@ TEST(JobService, GarmentDesignFileEnergyPerAreaAndPlyComeFromTheStoredJob) {
   ASSERT_TRUE(mesh.ok()) << mesh.message();
   EXPECT_EQ(mesh->vertices, want.positions);
   EXPECT_EQ(mesh->faces, Garment().garment.faces);
+}
+
+// A job of two motions (knee_brace's roles), its iterations reported with both: after the service is
+// reopened (nothing held in memory), the per-motion records the store gives to a resuming worker, a
+// watcher, the job's last metrics and GetIteration are those of the job's design file.
+TEST(JobService, ATwoMotionJobsRecordsAreTheDesignFilesAfterAReopen) {
+  const JobServiceOptions o = Options(FreshDir("motions"));
+  DesignFileHeader header = Garment();
+  header.motions = {{.name = "hyperextend", .role = MotionRole::kResist, .weight = 1.0},
+                    {.name = "flex", .role = MotionRole::kAllow, .weight = 0.5}};
+  auto with_motions = [&](int k) {
+    BesoIteration it = Iteration(k);
+    for (size_t j = 0; j < header.motions.size(); ++j) {
+      MotionMetrics m = header.motions[j];
+      m.energy_J = 1e-3 * (k + 1) + static_cast<double>(j);
+      m.reinforced_energy_J = 3e-4 / (k + 1) + static_cast<double>(j);
+      m.reinforced_density_J_per_m2 = 0.02 * (k + 2) + 0.5 * static_cast<double>(j);
+      m.density_ratio = 1 + 0.125 * k - 0.25 * static_cast<double>(j);
+      m.simulation_s = 0.5 + k + static_cast<double>(j);
+      m.solver_iterations = 4 + k + 5 * static_cast<int>(j);
+      it.motions.push_back(m);
+    }
+    return it;
+  };
+  int64_t id = 0;
+  {
+    auto s = Open(o);
+    ASSERT_TRUE(s);
+    v1::Job job;
+    ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(), &job).ok());
+    id = job.id();
+    const v1::LeaseJobResponse lease = Lease(*s);
+    FakeStream w(*s);
+    v1::WorkerMessage start = Start(lease.lease_id());
+    *start.mutable_start()->mutable_garment() = GarmentToProto(header);
+    EXPECT_EQ(w.Send(start).error(), "");
+    for (int k = 0; k < 3; ++k) {
+      v1::WorkerMessage report;
+      report.set_lease_id(lease.lease_id());
+      *report.mutable_iteration() = RecordToProto(with_motions(k));
+      EXPECT_EQ(w.Send(report).acknowledged_iterations(), k + 1);
+    }
+  }
+  auto s = Open(o);
+  ASSERT_TRUE(s);
+  Result<DesignFile> file = ReadDesignFile(Job(*s, id).data_file());
+  ASSERT_TRUE(file.ok()) << file.message();
+  ASSERT_EQ(file->iterations.size(), 3u);
+  for (int k = 0; k < 3; ++k) ASSERT_EQ(file->iterations[k].motions, with_motions(k).motions) << "the design file's iteration " << k;
+  auto motions_of = [](const v1::IterationMetrics& m) { return MetricsFromProto(m).motions; };
+  EXPECT_EQ(motions_of(Job(*s, id).last()), file->iterations[2].motions);
+  v1::GetIterationRequest r;
+  r.set_id(id);
+  r.set_iteration(1);
+  v1::GetIterationResponse it;
+  ASSERT_TRUE(s->GetIteration(kAlice, r, &it).ok());
+  EXPECT_EQ(motions_of(it.record().metrics()), file->iterations[1].motions);
+  {
+    Watch watch(*s, id, 0);
+    ASSERT_TRUE(WaitFor([&] { return watch.Iterations().size() == 3; }, 10));
+    watch.stop = true;
+    watch.thread.join();
+    for (const v1::WatchJobEvent& e : watch.events)
+      if (e.has_iteration())
+        EXPECT_EQ(motions_of(e.iteration().metrics()), file->iterations[e.iteration().metrics().iteration()].motions) << "watched iteration";
+  }
+  const v1::LeaseJobResponse resumed = Lease(*s);
+  ASSERT_TRUE(resumed.leased());
+  ASSERT_EQ(resumed.history_size(), 3);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(motions_of(resumed.history(k)), file->iterations[k].motions) << "the resumed worker's history, iteration " << k;
 }
 
 }  // namespace

@@ -71,6 +71,24 @@ ALTER TABLE iterations ADD COLUMN contact_s REAL NOT NULL DEFAULT 0;
 ALTER TABLE iterations ADD COLUMN friction_s REAL NOT NULL DEFAULT 0;
 ALTER TABLE iterations ADD COLUMN bending_s REAL NOT NULL DEFAULT 0;
 )sql",
+    R"sql(
+CREATE TABLE iteration_motions (
+  job_id                      INTEGER NOT NULL,
+  iteration                   INTEGER NOT NULL,
+  motion                      INTEGER NOT NULL,  -- 0-based, in the scene's order (0: the scene's own)
+  name                        TEXT NOT NULL,
+  role                        TEXT NOT NULL,     -- "resist" or "allow"
+  weight                      REAL NOT NULL,
+  energy_J                    REAL NOT NULL,
+  reinforced_energy_J         REAL NOT NULL,
+  reinforced_density_J_per_m2 REAL NOT NULL,
+  density_ratio               REAL NOT NULL,
+  simulation_s                REAL NOT NULL,
+  solver_iterations           INTEGER NOT NULL,
+  PRIMARY KEY (job_id, iteration, motion),
+  FOREIGN KEY (job_id, iteration) REFERENCES iterations(job_id, iteration)
+) WITHOUT ROWID;
+)sql",
 };
 constexpr int kNumMigrations = sizeof(kMigrations) / sizeof(kMigrations[0]);
 static_assert(kNumMigrations == kSchemaVersion);
@@ -101,6 +119,11 @@ class Stmt {
     return rc;
   }
   bool Run() { return Step() == SQLITE_DONE; }
+  // Ready to run again with new values.
+  void Reset() {
+    sqlite3_reset(s_);
+    sqlite3_clear_bindings(s_);
+  }
   int64_t Int(int c) const { return sqlite3_column_int64(s_, c); }
   double Real(int c) const { return sqlite3_column_double(s_, c); }
   bool Null(int c) const { return sqlite3_column_type(s_, c) == SQLITE_NULL; }
@@ -116,21 +139,46 @@ class Stmt {
   std::string error_;
 };
 
-// IterationMetrics' single-valued fields other than `iteration`, in declaration order: the metric
-// columns (a list, such as the per-motion figures, has no column).
-std::vector<const FieldDescriptor*> MetricFields() {
+// A message's single-valued fields, in declaration order, but `skip`: its columns (a list, such as
+// IterationMetrics' per-motion figures, has none).
+std::vector<const FieldDescriptor*> ColumnFields(const google::protobuf::Descriptor* d, const std::string& skip = "") {
   std::vector<const FieldDescriptor*> out;
-  const auto* d = v1::IterationMetrics::descriptor();
   for (int i = 0; i < d->field_count(); ++i)
-    if (d->field(i)->name() != "iteration" && !d->field(i)->is_repeated() && d->field(i)->cpp_type() != FieldDescriptor::CPPTYPE_MESSAGE)
+    if (d->field(i)->name() != skip && !d->field(i)->is_repeated() && d->field(i)->cpp_type() != FieldDescriptor::CPPTYPE_MESSAGE)
       out.push_back(d->field(i));
   return out;
 }
 
-std::string MetricColumns() {
+// The metric columns of `iterations`: IterationMetrics' fields other than `iteration`.
+std::vector<const FieldDescriptor*> MetricFields() { return ColumnFields(v1::IterationMetrics::descriptor(), "iteration"); }
+// The figure columns of `iteration_motions`: every MotionMetrics field.
+std::vector<const FieldDescriptor*> MotionFields() { return ColumnFields(v1::MotionMetrics::descriptor()); }
+
+std::string Columns(const std::vector<const FieldDescriptor*>& fields) {
   std::string s;
-  for (const FieldDescriptor* f : MetricFields()) s += ", " + f->name();
+  for (const FieldDescriptor* f : fields) s += ", " + f->name();
   return s;
+}
+std::string MetricColumns() { return Columns(MetricFields()); }
+
+// Binds field `f` of `m` to parameter k (double, int32 or string: the kinds the metric messages have).
+void BindField(Stmt& s, int k, const google::protobuf::Message& m, const FieldDescriptor* f) {
+  const auto* refl = m.GetReflection();
+  switch (f->cpp_type()) {
+    case FieldDescriptor::CPPTYPE_DOUBLE: s.Bind(k, refl->GetDouble(m, f)); break;
+    case FieldDescriptor::CPPTYPE_INT32: s.Bind(k, refl->GetInt32(m, f)); break;
+    default: s.Bind(k, refl->GetString(m, f)); break;
+  }
+}
+
+// Sets field `f` of `m` from column c.
+void ReadField(const Stmt& s, int c, google::protobuf::Message* m, const FieldDescriptor* f) {
+  const auto* refl = m->GetReflection();
+  switch (f->cpp_type()) {
+    case FieldDescriptor::CPPTYPE_DOUBLE: refl->SetDouble(m, f, s.Real(c)); break;
+    case FieldDescriptor::CPPTYPE_INT32: refl->SetInt32(m, f, static_cast<int32_t>(s.Int(c))); break;
+    default: refl->SetString(m, f, s.Text(c)); break;
+  }
 }
 
 Status SqlError(const std::string& what, const std::string& error) { return Status::Error("job store: " + what + ": " + error); }
@@ -168,19 +216,22 @@ Result<std::unique_ptr<JobStore>> JobStore::Open(const std::string& path) {
       return Status::Error(path + ": migration to schema version " + std::to_string(v + 1) + " failed: " + st.message());
     }
   }
-  // A metric field added to IterationMetrics (a new energy term's time, say) gets its column here,
-  // with 0 for the iterations stored before it: the schema follows the proto, no migration by hand.
-  {
+  // A metric field added to IterationMetrics or MotionMetrics (a new energy term's time, say) gets
+  // its column here, with 0 for the rows stored before it: the schema follows the proto, no migration
+  // by hand.
+  for (const auto& [table, fields] : {std::pair{"iterations", MetricFields()}, std::pair{"iteration_motions", MotionFields()}}) {
     std::set<std::string> have;
-    Stmt s(store->db_, "PRAGMA table_info(iterations)");
+    Stmt s(store->db_, std::string("PRAGMA table_info(") + table + ")");
     while (s.Step() == SQLITE_ROW) have.insert(s.Text(1));
-    if (!s.ok()) return Status::Error(path + ": reading the iterations table's columns failed: " + s.error());
-    for (const FieldDescriptor* f : MetricFields()) {
+    if (!s.ok()) return Status::Error(path + ": reading the " + table + " table's columns failed: " + s.error());
+    for (const FieldDescriptor* f : fields) {
       if (have.count(f->name())) continue;
       const bool text = f->cpp_type() == FieldDescriptor::CPPTYPE_STRING;
       const bool real = f->cpp_type() == FieldDescriptor::CPPTYPE_DOUBLE || f->cpp_type() == FieldDescriptor::CPPTYPE_FLOAT;
-      const std::string sql = "ALTER TABLE iterations ADD COLUMN " + f->name() + (text ? " TEXT NOT NULL DEFAULT ''" : real ? " REAL NOT NULL DEFAULT 0" : " INTEGER NOT NULL DEFAULT 0");
-      if (Status st = store->Exec(sql); !st.ok()) return Status::Error(path + ": adding the metric column " + f->name() + " failed: " + st.message());
+      const std::string sql = std::string("ALTER TABLE ") + table + " ADD COLUMN " + f->name() +
+                              (text ? " TEXT NOT NULL DEFAULT ''" : real ? " REAL NOT NULL DEFAULT 0" : " INTEGER NOT NULL DEFAULT 0");
+      if (Status st = store->Exec(sql); !st.ok())
+        return Status::Error(path + ": adding the column " + f->name() + " to " + table + " failed: " + st.message());
     }
   }
   std::random_device rd;
@@ -357,17 +408,24 @@ Status JobStore::AppendIteration(int64_t job_id, const std::string& lease_id, co
   sql += ", ?)";
   Stmt ins(db_, sql);
   ins.Bind(1, job_id).Bind(2, m.iteration());
-  const auto* refl = m.GetReflection();
   int k = 3;
-  for (const FieldDescriptor* f : fields) {
-    switch (f->cpp_type()) {
-      case FieldDescriptor::CPPTYPE_DOUBLE: ins.Bind(k++, refl->GetDouble(m, f)); break;
-      case FieldDescriptor::CPPTYPE_INT32: ins.Bind(k++, refl->GetInt32(m, f)); break;
-      default: ins.Bind(k++, refl->GetString(m, f)); break;
-    }
-  }
+  for (const FieldDescriptor* f : fields) BindField(ins, k++, m, f);
   ins.BindBlob(k, design);
   if (!ins.Run()) return fail(SqlError("store iteration", ins.error()));
+  if (m.motions_size() > 0) {
+    const std::vector<const FieldDescriptor*> motion_fields = MotionFields();
+    std::string msql = "INSERT INTO iteration_motions(job_id, iteration, motion" + Columns(motion_fields) + ") VALUES(?, ?, ?";
+    for (size_t i = 0; i < motion_fields.size(); ++i) msql += ", ?";
+    msql += ")";
+    Stmt mins(db_, msql);
+    for (int j = 0; j < m.motions_size(); ++j) {
+      mins.Reset();
+      mins.Bind(1, job_id).Bind(2, m.iteration()).Bind(3, j);
+      int c = 4;
+      for (const FieldDescriptor* f : motion_fields) BindField(mins, c++, m.motions(j), f);
+      if (!mins.Run()) return fail(SqlError("store iteration " + std::to_string(m.iteration()) + "'s motion " + std::to_string(j), mins.error()));
+    }
+  }
   Stmt up(db_, "UPDATE jobs SET iterations = iterations + 1 WHERE id = ?");
   up.Bind(1, job_id);
   if (!up.Run()) return fail(SqlError("store iteration", up.error()));
@@ -451,18 +509,27 @@ Result<std::vector<v1::IterationMetrics>> JobStore::Metrics(int64_t job_id, int 
   while ((rc = s.Step()) == SQLITE_ROW) {
     v1::IterationMetrics m;
     m.set_iteration(static_cast<int>(s.Int(0)));
-    const auto* refl = m.GetReflection();
     int c = 1;
-    for (const FieldDescriptor* f : fields) {
-      switch (f->cpp_type()) {
-        case FieldDescriptor::CPPTYPE_DOUBLE: refl->SetDouble(&m, f, s.Real(c++)); break;
-        case FieldDescriptor::CPPTYPE_INT32: refl->SetInt32(&m, f, static_cast<int32_t>(s.Int(c++))); break;
-        default: refl->SetString(&m, f, s.Text(c++)); break;
-      }
-    }
+    for (const FieldDescriptor* f : fields) ReadField(s, c++, &m, f);
     out.push_back(std::move(m));
   }
   if (rc != SQLITE_DONE) return SqlError("read metrics", s.error());
+  if (out.empty()) return out;
+  // A job's iterations are stored without gaps, so the rows above are in order: iteration i is out[i - first].
+  const int first = out.front().iteration();
+  const std::vector<const FieldDescriptor*> motion_fields = MotionFields();
+  Stmt ms(db_, "SELECT iteration" + Columns(motion_fields) +
+                   " FROM iteration_motions WHERE job_id = ? AND iteration >= ? AND iteration < ? ORDER BY iteration, motion");
+  ms.Bind(1, job_id).Bind(2, from).Bind(3, to);
+  while ((rc = ms.Step()) == SQLITE_ROW) {
+    const int64_t i = ms.Int(0) - first;
+    if (i < 0 || i >= static_cast<int64_t>(out.size()) || out[i].iteration() != ms.Int(0))
+      return SqlError("read metrics", "job " + std::to_string(job_id) + ": motions of iteration " + std::to_string(ms.Int(0)) + ", which is not stored");
+    v1::MotionMetrics* mm = out[i].add_motions();
+    int c = 1;
+    for (const FieldDescriptor* f : motion_fields) ReadField(ms, c++, mm, f);
+  }
+  if (rc != SQLITE_DONE) return SqlError("read motions", ms.error());
   return out;
 }
 
@@ -483,13 +550,15 @@ Result<std::optional<v1::IterationRecord>> JobStore::Iteration(int64_t job_id, i
 Status JobStore::TruncateIterations(int64_t job_id, int keep) {
   std::lock_guard lock(mu_);
   KGD_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE"));
+  Stmt del_motions(db_, "DELETE FROM iteration_motions WHERE job_id = ? AND iteration >= ?");
+  del_motions.Bind(1, job_id).Bind(2, keep);
   Stmt del(db_, "DELETE FROM iterations WHERE job_id = ? AND iteration >= ?");
   del.Bind(1, job_id).Bind(2, keep);
   Stmt up(db_, "UPDATE jobs SET iterations = ? WHERE id = ?");
   up.Bind(1, keep).Bind(2, job_id);
-  if (!del.Run() || !up.Run()) {
+  if (!del_motions.Run() || !del.Run() || !up.Run()) {
     Exec("ROLLBACK");
-    return SqlError("truncate iterations", del.error() + up.error());
+    return SqlError("truncate iterations", del_motions.error() + del.error() + up.error());
   }
   return Exec("COMMIT");
 }

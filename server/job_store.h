@@ -5,6 +5,9 @@
 //               expiry), the number of stored iterations, failure reason, cancel request
 //   iterations  one row per (job, iteration): every IterationMetrics field as a column of the same
 //               name, and the design (one byte per face)
+//   iteration_motions  one row per (job, iteration, motion): every MotionMetrics field as a column of
+//               the same name (IterationMetrics.motions, in the scene's order; none for iterations
+//               stored before the table, which read with no motions)
 // An iteration row is the acknowledgement: the server inserts it after the job's HDF5 file holds the
 // iteration, and a job's rows are always 0..iterations-1.
 //
@@ -25,7 +28,7 @@
 
 namespace kgd::server {
 
-inline constexpr int kSchemaVersion = 3;
+inline constexpr int kSchemaVersion = 4;
 
 struct Lease {
   std::string lease_id;
@@ -63,7 +66,8 @@ class JobStore {
   bool Renew(int64_t job_id, const std::string& lease_id, double now, double duration_s);
   bool LeaseValid(int64_t job_id, const std::string& lease_id);
 
-  // Stores iteration `metrics.iteration()` (it must be the next one) of a job held by `lease_id`.
+  // Stores iteration `metrics.iteration()` (it must be the next one), with its motions, of a job held
+  // by `lease_id`.
   Status AppendIteration(int64_t job_id, const std::string& lease_id, const v1::IterationMetrics& metrics,
                          const std::string& design);
   // Ends a lease: SUCCEEDED, FAILED (with `failure`), or back to QUEUED (released, lost). A job whose
@@ -81,7 +85,8 @@ class JobStore {
   Result<std::optional<v1::Job>> Cancel(int64_t id, double now);
   bool CancelRequested(int64_t job_id);
 
-  Result<std::vector<v1::IterationMetrics>> Metrics(int64_t job_id, int from, int to);  // [from, to)
+  // Iterations [from, to) with their motions.
+  Result<std::vector<v1::IterationMetrics>> Metrics(int64_t job_id, int from, int to);
   // Iteration k's metrics and design; nullopt when not stored.
   Result<std::optional<v1::IterationRecord>> Iteration(int64_t job_id, int k);
   // Keeps iterations 0..keep-1 of a job (start-up repair when its HDF5 file holds fewer).

@@ -1,7 +1,8 @@
 // The job store: schema versions, the lease life cycle (lease, renew, expire, retry limit), cancel,
-// and iterations that are stored in order, once, by the lease holder only.
+// and iterations that are stored in order, once, by the lease holder only, with their motions.
 #include "server/job_store.h"
 
+#include <google/protobuf/util/message_differencer.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -68,7 +69,7 @@ TEST(JobStore, AVersion2DatabaseGainsTheSolveProfileColumns) {
     for (const char* c : {"assembly_s", "factorization_s", "linear_solve_s", "line_search_s", "body_field_query_s", "membrane_s",
                           "fold_barrier_s", "attachment_s", "contact_s", "friction_s", "bending_s"})
       ASSERT_EQ(sqlite3_exec(db, (std::string("ALTER TABLE iterations DROP COLUMN ") + c).c_str(), nullptr, nullptr, nullptr), SQLITE_OK) << c;
-    ASSERT_EQ(sqlite3_exec(db, "PRAGMA user_version=2", nullptr, nullptr, nullptr), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "DROP TABLE iteration_motions; PRAGMA user_version=2", nullptr, nullptr, nullptr), SQLITE_OK);
     sqlite3_close(db);
   }
   auto store = std::move(JobStore::Open(path)).value();
@@ -84,6 +85,73 @@ TEST(JobStore, AVersion2DatabaseGainsTheSolveProfileColumns) {
   ASSERT_TRUE(now.ok() && *now);
   EXPECT_EQ((*now)->metrics().membrane_s(), 0.25);
   EXPECT_EQ((*now)->metrics().factorization_s(), 0.5);
+}
+
+// Iteration k with two motions, every figure of each its own value.
+v1::IterationMetrics WithMotions(int k) {
+  v1::IterationMetrics m = Metrics(k);
+  for (int j = 0; j < 2; ++j) {
+    v1::MotionMetrics* mm = m.add_motions();
+    mm->set_name(j == 0 ? "hyperextend" : "flex");
+    mm->set_role(j == 0 ? "resist" : "allow");
+    mm->set_weight(j == 0 ? 1.0 : 0.25 + k);
+    mm->set_energy_j(1e-3 * (k + 1) + j);
+    mm->set_reinforced_energy_j(2e-4 * (k + 1) + j);
+    mm->set_reinforced_density_j_per_m2(0.125 / (k + 1) + j);
+    mm->set_density_ratio(1 + 0.01 * k + 0.5 * j);
+    mm->set_simulation_s(0.75 + k + j);
+    mm->set_solver_iterations(7 + k + 3 * j);
+  }
+  return m;
+}
+
+bool Same(const google::protobuf::Message& a, const google::protobuf::Message& b) {
+  return google::protobuf::util::MessageDifferencer::Equals(a, b);
+}
+
+// Each iteration's motions come back from every query (metrics, the iteration, the job's last), after
+// a truncation too; a version-3 database (no motion table) opens, its iterations without motions.
+TEST(JobStore, EveryIterationsMotionsRoundTripAndAVersion3DatabaseGainsTheirTable) {
+  const std::string path = FreshPath("v3");
+  int64_t job = 0;
+  std::string lease;
+  {
+    auto store = std::move(JobStore::Open(path)).value();
+    job = *store->CreateJob(Spec(), 3, 100.0);
+    lease = (**store->LeaseNext("w1", 101.0, 1000.0)).lease_id;
+    ASSERT_TRUE(store->AppendIteration(job, lease, Metrics(0), std::string(3, '\1')).ok());
+  }
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "DROP TABLE iteration_motions; PRAGMA user_version=3", nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(db);
+  }
+  Result<std::unique_ptr<JobStore>> opened = JobStore::Open(path);
+  ASSERT_TRUE(opened.ok()) << opened.message();
+  auto store = std::move(opened).value();
+  Result<std::optional<v1::IterationRecord>> old = store->Iteration(job, 0);
+  ASSERT_TRUE(old.ok() && *old) << old.message();
+  EXPECT_TRUE(Same((*old)->metrics(), Metrics(0)));  // no motions
+  for (int k = 1; k <= 2; ++k) ASSERT_TRUE(store->AppendIteration(job, lease, WithMotions(k), std::string(3, '\1')).ok()) << k;
+  Result<std::vector<v1::IterationMetrics>> all = store->Metrics(job, 0, 3);
+  ASSERT_TRUE(all.ok()) << all.message();
+  ASSERT_EQ(all->size(), 3u);
+  EXPECT_EQ((*all)[0].motions_size(), 0);
+  for (int k = 1; k <= 2; ++k) EXPECT_TRUE(Same((*all)[k], WithMotions(k))) << (*all)[k].DebugString();
+  Result<std::vector<v1::IterationMetrics>> one = store->Metrics(job, 2, 3);  // a range that starts past 0
+  ASSERT_TRUE(one.ok() && one->size() == 1u);
+  EXPECT_TRUE(Same(one->front(), WithMotions(2)));
+  EXPECT_TRUE(Same((*store->Iteration(job, 1))->metrics(), WithMotions(1)));
+  EXPECT_TRUE(Same((**store->GetJob(job)).last(), WithMotions(2)));
+  // Truncated and stored again: iteration 2's new motions, none of the old.
+  ASSERT_TRUE(store->TruncateIterations(job, 2).ok());
+  v1::IterationMetrics again = WithMotions(2);
+  again.mutable_motions()->RemoveLast();
+  again.mutable_motions(0)->set_density_ratio(0.5);
+  ASSERT_TRUE(store->AppendIteration(job, lease, again, std::string(3, '\1')).ok());
+  EXPECT_TRUE(Same((**store->GetJob(job)).last(), again)) << (**store->GetJob(job)).last().DebugString();
+  EXPECT_EQ(store->IntegrityCheck(), "ok");
 }
 
 TEST(JobStore, LeasesRenewsAndStoresIterationsInOrderForTheHolderOnly) {
