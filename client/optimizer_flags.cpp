@@ -48,6 +48,19 @@ void AddOptimizerFlags(CLI::App* d, OptimizerFlags* o) {
   d->add_option("--quality", o->quality,
                 "Accuracy preset: draft (grad_tol 1e-3), standard (1e-4) or precise (1e-6); what each costs and buys: docs/ACCURACY.md")
       ->check(CLI::IsMember({"draft", "standard", "precise"}));
+  // NAME=W: the weight is a finite number here; whether it is >= 0 and the scene has NAME is the job
+  // spec's check (proto/job_spec.h), with the same message as the service's.
+  d->add_option("--motion-weight", o->motion_weights,
+                "Weight of one of the scene's motions, NAME=W with W >= 0 (repeatable), in place of the scene's own; `kgd scenes` lists the motions")
+      ->check(CLI::Validator(
+          [](std::string& item) {
+            const size_t eq = item.rfind('=');
+            double w = 0;
+            if (eq == std::string::npos || eq == 0 || !CLI::detail::lexical_cast(item.substr(eq + 1), w) || !std::isfinite(w))
+              return "'" + item + "' is not NAME=W with a finite number W";
+            return std::string();
+          },
+          "NAME=W"));
 }
 
 v1::OptimizerSettings ToProto(const OptimizerFlags& o) {
@@ -63,6 +76,13 @@ v1::OptimizerSettings ToProto(const OptimizerFlags& o) {
   if (Given(o.max_newton)) s.set_max_newton_iterations(o.max_newton);
   if (Given(o.grad_tol)) s.set_grad_tol(o.grad_tol);
   if (!o.quality.empty()) s.set_quality(o.quality);
+  // Each item was checked to be NAME=W with a finite W (AddOptimizerFlags).
+  for (const std::string& item : o.motion_weights) {
+    const size_t eq = item.rfind('=');
+    double w = 0;
+    CLI::detail::lexical_cast(item.substr(eq + 1), w);
+    (*s.mutable_motion_weights())[item.substr(0, eq)] = w;
+  }
   return s;
 }
 
@@ -74,7 +94,7 @@ bool AnyDesignFlagGiven(const OptimizerFlags& o) {
 #define KGD_SWITCH_GIVEN(name, default_value, flag, proto_field, help) any |= o.name;
   KGD_BESO_SWITCHES(KGD_SWITCH_GIVEN)
 #undef KGD_SWITCH_GIVEN
-  return any;
+  return any || !o.motion_weights.empty();
 }
 
 }  // namespace kgd::cli

@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 #include <string>
+#include <vector>
 
 #include "core/beso/beso.h"
 #include "kgd/v1/kgd.pb.h"
@@ -25,12 +26,15 @@ struct OptimizerFlags {
   double grad_tol;
   int max_newton = kUnset;
   std::string quality;  // empty: not given
+  // --motion-weight NAME=W (repeatable): the weight of the scene's motion NAME; the last given wins.
+  std::vector<std::string> motion_weights;
   OptimizerFlags();
 };
 
 void AddOptimizerFlags(CLI::App* command, OptimizerFlags* flags);
 v1::OptimizerSettings ToProto(const OptimizerFlags& flags);
-// True when any BESO flag other than --iterations was given (the solver flags do not count).
+// True when any BESO flag other than --iterations, or a motion weight, was given (the solver flags do
+// not count).
 bool AnyDesignFlagGiven(const OptimizerFlags& flags);
 
 }  // namespace kgd::cli

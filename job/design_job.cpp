@@ -48,6 +48,7 @@ Result<DesignJob> NewDesignJob(SceneSpec scene, const v1::OptimizerSettings& opt
   Result<BesoSettings> settings = SettingsOfJob(optimizer, scene.budget);
   if (!settings.ok()) return settings.status();
   ApplySolverOverrides(optimizer, &scene.solver);
+  KGD_RETURN_IF_ERROR(ApplyMotionWeights(optimizer, &scene));
   DesignJob job;
   job.header.scene = std::move(scene_name);
   job.header.body = std::move(body);
@@ -76,6 +77,10 @@ Result<DesignJob> ResumeDesignJob(SceneSpec scene, DesignFileHeader header, std:
   KGD_RETURN_IF_ERROR(CheckStoredGarment(scene, header, source));
   if (max_iterations > 0) header.settings.max_iterations = max_iterations;
   KGD_RETURN_IF_ERROR(ValidateBesoSettings(header.settings));
+  // The motions weigh what the job gave them (the stored /job motions), not the rebuilt scene's defaults.
+  for (SceneMotion& m : scene.motions)
+    for (const MotionMetrics& stored : header.motions)
+      if (stored.name == m.name) m.weight = stored.weight;
   DesignJob job;
   job.scene = std::move(scene);
   job.header = std::move(header);

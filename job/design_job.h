@@ -27,13 +27,15 @@ struct DesignJob {
 };
 
 // A new job on `scene` (built by the caller) named `scene_name` with `body` overrides (as words,
-// "name=value ..."): BESO settings from `optimizer` over the scene's budget, the solver overrides
-// applied. Errors name the setting, as SettingsOfJob does.
+// "name=value ..."): BESO settings from `optimizer` over the scene's budget, the solver overrides and
+// the motion weights (ApplyMotionWeights) applied. Errors name the setting or the motion, as
+// SettingsOfJob and ApplyMotionWeights do.
 Result<DesignJob> NewDesignJob(SceneSpec scene, const v1::OptimizerSettings& optimizer, std::string scene_name, std::string body);
 
 // A stored job continued: `header` and `history` from its design file or the server's checkpoint,
 // `scene` rebuilt by the caller. The scene must give the stored garment exactly (the message names
-// the first difference, prefixed by `source`); `max_iterations` > 0 replaces the stored limit.
+// the first difference, prefixed by `source`); `max_iterations` > 0 replaces the stored limit. The
+// scene's motions take the stored weights (header.motions).
 Result<DesignJob> ResumeDesignJob(SceneSpec scene, DesignFileHeader header, std::vector<BesoIteration> history, const std::string& source,
                                   int max_iterations = 0);
 

@@ -1,13 +1,16 @@
 #include "proto/job_spec.h"
 #include "core/scene/scene_file.h"
 #include "core/scene/builtin_scenes.h"
+#include "core/scene/paper_scenes.h"
 #include "core/beso/quality.h"
 
 #include <google/protobuf/util/json_util.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <type_traits>
 #include <sstream>
 
@@ -74,6 +77,47 @@ std::string SceneJson(const v1::Scene& scene) {
 }
 
 namespace {
+
+std::string WeightText(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+// The spec's motion weights, by name in order: each finite and >= 0.
+Status CheckMotionWeightValues(const v1::OptimizerSettings& o) {
+  const std::map<std::string, double> weights(o.motion_weights().begin(), o.motion_weights().end());
+  for (const auto& [name, w] : weights)
+    if (!(w >= 0 && std::isfinite(w))) return Status::Error("motion_weights: motion '" + name + "': weight " + WeightText(w) + " must be finite and >= 0");
+  return Status::Ok();
+}
+
+// ... and each names one of `motions` of scene `scene`, which has several.
+Status CheckMotionWeightNames(const v1::OptimizerSettings& o, const std::vector<std::string>& motions, const std::string& scene) {
+  if (o.motion_weights().empty()) return Status::Ok();
+  const std::map<std::string, double> weights(o.motion_weights().begin(), o.motion_weights().end());
+  std::string list;
+  for (const std::string& m : motions) list += (list.empty() ? "'" : ", '") + m + "'";
+  if (motions.size() < 2)
+    return Status::Error("motion_weights: motion '" + weights.begin()->first + "': scene '" + scene +
+                         "' has one motion; weights are for a scene of several");
+  for (const auto& [name, w] : weights)
+    if (std::find(motions.begin(), motions.end(), name) == motions.end())
+      return Status::Error("motion_weights: motion '" + name + "': scene '" + scene + "' has no motion of this name (its motions: " + list + ")");
+  return Status::Ok();
+}
+
+// A built-in scene's motions by name (no body is built).
+std::vector<std::string> BuiltinMotionNames(const std::string& scene) {
+  for (const BraceScene& b : BraceScenes())
+    if (b.name == scene) {
+      std::vector<std::string> names;
+      for (const BraceMotion& m : b.motions) names.push_back(m.name);
+      return names;
+    }
+  return {scene};
+}
+
 template <typename T>
 T ReflectedValue(const google::protobuf::Reflection* r, const v1::OptimizerSettings& o, const google::protobuf::FieldDescriptor* f) {
   if constexpr (std::is_same_v<T, int>) return r->GetInt32(o, f);
@@ -123,6 +167,7 @@ Result<BesoSettings> SettingsOfJob(const v1::OptimizerSettings& o, double scene_
     return Status::Error("grad_tol = " + std::to_string(o.grad_tol()) + " must be finite and > 0");
   if (!o.quality().empty())
     if (Result<Quality> q = QualityFromName(o.quality()); !q.ok()) return q.status();
+  KGD_RETURN_IF_ERROR(CheckMotionWeightValues(o));
   return s;
 }
 
@@ -130,6 +175,17 @@ void ApplySolverOverrides(const v1::OptimizerSettings& o, SolverSettings* solver
   if (o.has_max_newton_iterations()) solver->max_iterations = o.max_newton_iterations();
   if (Result<Quality> q = QualityFromName(o.quality()); !o.quality().empty() && q.ok()) solver->grad_tol = PresetOf(*q).grad_tol;
   if (o.has_grad_tol()) solver->grad_tol = o.grad_tol();
+}
+
+Status ApplyMotionWeights(const v1::OptimizerSettings& o, SceneSpec* scene) {
+  if (o.motion_weights().empty()) return Status::Ok();
+  KGD_RETURN_IF_ERROR(CheckMotionWeightValues(o));
+  std::vector<std::string> names;
+  for (const SceneMotion& m : MotionsOf(*scene)) names.push_back(m.name);
+  KGD_RETURN_IF_ERROR(CheckMotionWeightNames(o, names, scene->name));
+  for (SceneMotion& m : scene->motions)
+    if (const auto it = o.motion_weights().find(m.name); it != o.motion_weights().end()) m.weight = it->second;
+  return ValidateSceneMotions(*scene).WithContext("motion_weights: ");
 }
 
 Status ValidateJobSpec(const v1::JobSpec& spec) {
@@ -145,6 +201,9 @@ Status ValidateJobSpec(const v1::JobSpec& spec) {
       std::vector<std::string> body(spec.body().begin(), spec.body().end());
       if (Result<std::optional<BodyMeasurements>> m = ParseBodyMeasurements(body); !m.ok())
         return m.status().WithContext("spec.body: ");
+      if (Status st = CheckMotionWeightValues(spec.optimizer()); !st.ok()) return st.WithContext("spec.optimizer: ");
+      if (Status st = CheckMotionWeightNames(spec.optimizer(), BuiltinMotionNames(spec.builtin_scene()), spec.builtin_scene()); !st.ok())
+        return st.WithContext("spec.optimizer: ");
       break;
     }
     case v1::JobSpec::kSceneFiles: {

@@ -29,6 +29,11 @@ Result<BesoSettings> SettingsOfJob(const v1::OptimizerSettings& optimizer, doubl
 // Solver overrides of a spec (Newton iteration limit, gradient tolerance) applied to `solver`.
 void ApplySolverOverrides(const v1::OptimizerSettings& optimizer, SolverSettings* solver);
 
+// The spec's motion weights (optimizer.motion_weights) given to the scene's motions of those names.
+// Errors name the motion: a weight not finite or below 0, a name the scene does not have, weights for
+// a scene of one motion, the first motion at weight 0 (ValidateSceneMotions).
+Status ApplyMotionWeights(const v1::OptimizerSettings& optimizer, SceneSpec* scene);
+
 // The scene of a spec: a built-in scene (with body overrides), or the scene files loaded from the
 // spec's bundle in memory (messages name the files as the scene does).
 Result<SceneSpec> SceneOfJob(const v1::JobSpec& spec);

@@ -3,6 +3,8 @@
 #include "proto/job_spec.h"
 
 #include <algorithm>
+#include <cmath>
+#include <map>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -378,6 +380,56 @@ TEST(Records, AnEvaluationsSkinPressureSurvivesItsMessage) {
   const Result<DesignEvaluation> bad = EvaluationFromProto(p, 2, 5, 4);
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.message().find("evaluation frame 2: skin_pressure_Pa has 3 values for 4 body vertices"), std::string::npos) << bad.message();
+}
+
+// A spec's motion weights: refused before any scene is built when a weight is below 0 or not finite,
+// or a built-in scene lacks the name or has one motion; given to the scene's motions of those names,
+// and refused when they leave the first motion at 0. Each message names the motion.
+TEST(JobSpec, MotionWeightsReachTheirMotionsOrAreRefusedNamingTheMotion) {
+  auto with = [](const std::string& scene, std::map<std::string, double> weights) {
+    v1::JobSpec s = Builtin(scene);
+    for (const auto& [name, w] : weights) (*s.mutable_optimizer()->mutable_motion_weights())[name] = w;
+    return s;
+  };
+  auto message = [](const v1::JobSpec& s) { return ValidateJobSpec(s).message(); };
+  EXPECT_TRUE(ValidateJobSpec(with("knee_brace", {{"flex", 0}, {"hyperextend", 2}})).ok());
+  EXPECT_EQ(message(with("knee_brace", {{"flex", -1}})), "spec.optimizer: motion_weights: motion 'flex': weight -1 must be finite and >= 0");
+  EXPECT_NE(message(with("knee_brace", {{"flex", std::nan("")}})).find("motion 'flex': weight nan"), std::string::npos);
+  EXPECT_EQ(message(with("knee_brace", {{"kick", 1}})),
+            "spec.optimizer: motion_weights: motion 'kick': scene 'knee_brace' has no motion of this name (its motions: 'hyperextend', 'flex')");
+  EXPECT_NE(message(with("arm_flexion", {{"arm_flexion", 2}})).find("scene 'arm_flexion' has one motion"), std::string::npos);
+
+  // A scene of two motions over one rest pose (no simulation needed to weigh them).
+  SceneSpec scene;
+  scene.name = "two";
+  BodyMotion pose;
+  pose.faces = Faces(1, 3);
+  pose.faces << 0, 1, 2;
+  pose.rest = Positions::Identity(3, 3);
+  pose.deformed = 2 * pose.rest;
+  scene.motion = pose;
+  scene.garment_from_body.resize(3, 3);
+  scene.garment_from_body.setIdentity();
+  scene.motions = {{.name = "a", .pose = pose}, {.name = "b", .role = MotionRole::kAllow, .pose = pose}};
+  ASSERT_TRUE(ValidateSceneMotions(scene).ok()) << ValidateSceneMotions(scene).message();
+  auto apply = [&](std::map<std::string, double> weights) {
+    SceneSpec s = scene;
+    const Status st = ApplyMotionWeights(with("two", weights).optimizer(), &s);
+    return std::make_pair(st, s);
+  };
+  const auto [ok, weighed] = apply({{"b", 0.25}});
+  ASSERT_TRUE(ok.ok()) << ok.message();
+  EXPECT_EQ(weighed.motions[0].weight, 1.0);
+  EXPECT_EQ(weighed.motions[1].weight, 0.25);
+  EXPECT_EQ(apply({{"b", -0.5}}).first.message(), "motion_weights: motion 'b': weight -0.5 must be finite and >= 0");
+  EXPECT_EQ(apply({{"c", 1}}).first.message(), "motion_weights: motion 'c': scene 'two' has no motion of this name (its motions: 'a', 'b')");
+  EXPECT_NE(apply({{"a", 0}}).first.message().find("motion_weights: motion 'a': the first motion is the scene's own and must be resisted with a weight > 0"),
+            std::string::npos)
+      << apply({{"a", 0}}).first.message();
+  SceneSpec one = scene;
+  one.motions.clear();
+  EXPECT_NE(ApplyMotionWeights(with("two", {{"two", 1}}).optimizer(), &one).message().find("scene 'two' has one motion"), std::string::npos);
+  EXPECT_TRUE(ApplyMotionWeights(v1::OptimizerSettings(), &one).ok());
 }
 
 }  // namespace
