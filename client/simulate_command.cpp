@@ -307,15 +307,23 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
   scenes->callback([exit_code] {
     // The solves' share of each prediction is this machine's (job/cost_calibration.h).
     const MachineFactor machine = ReadMachineFactor(LocalCostCalibrationFile());
-    std::printf("%-26s %-12s %-7s %-7s %-7s %-18s %s\n", "name", "garment", "faces", "budget", "frames", "predicted (s)", "description");
+    std::printf("%-26s %-12s %-7s %-7s %-7s %-18s %-9s %-42s %s\n", "name", "garment", "faces", "budget", "frames", "predicted (s)",
+                "symmetric", "motions (role weight)", "description");
     for (const BuiltinSceneInfo& s : BuiltinSceneInfos()) {
       // The whole design job per preset (draft / standard / precise), core/beso/quality.h.
       const std::map<std::string, double> seconds = PredictedSceneSeconds(s, machine.factor);
       std::string predicted;
       for (const QualityPreset& q : QualityPresets())
         predicted += (predicted.empty() ? "" : "/") + std::to_string(static_cast<int>(std::lround(seconds.at(q.name))));
-      std::printf("%-26s %-12s %-7d %-7.2f %-7s %-18s %s\n", s.name.c_str(), s.garment.empty() ? "-" : s.garment.c_str(), s.garment_faces,
-                  s.budget, s.frames ? std::to_string(s.frames).c_str() : "-", predicted.c_str(), s.description.c_str());
+      std::string motions;
+      for (const BuiltinSceneInfo::Motion& m : s.motions) {
+        char weight[32];
+        std::snprintf(weight, sizeof weight, "%g", m.weight);
+        motions += (motions.empty() ? "" : ", ") + m.name + " (" + ToString(m.role) + " " + weight + ")";
+      }
+      std::printf("%-26s %-12s %-7d %-7.2f %-7s %-18s %-9s %-42s %s\n", s.name.c_str(), s.garment.empty() ? "-" : s.garment.c_str(),
+                  s.garment_faces, s.budget, s.frames ? std::to_string(s.frames).c_str() : "-", predicted.c_str(), s.symmetric ? "yes" : "no",
+                  motions.c_str(), s.description.c_str());
     }
     if (machine.jobs > 0) std::printf("predicted: draft/standard/precise, the solves at %.2fx the reference machine (learned from the design jobs run here: %d)\n", machine.factor, machine.jobs);
     else std::printf("predicted: draft/standard/precise on the reference machine (a design job finished here tunes them to this one)\n");

@@ -49,6 +49,10 @@ std::vector<std::pair<std::string, std::string>> FilesNamed(const v1::Scene& s) 
   if (s.body().has_rest()) add("body.rest", s.body().rest());
   if (s.body().has_deformed()) add("body.deformed", s.body().deformed());
   for (const std::string& f : s.body().frames()) add("body.frames", f);
+  for (const v1::SceneMotion& m : s.motions()) {
+    if (m.has_deformed()) add("motions.deformed", m.deformed());
+    for (const std::string& f : m.frames()) add("motions.frames", f);
+  }
   add_value("attachments.faces", s.attachments().faces());
   add_value("attachments.body_faces", s.attachments().body_faces());
   for (const v1::SceneClamp& c : s.clamps()) add_value("clamps.vertices", c.vertices());

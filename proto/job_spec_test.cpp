@@ -15,6 +15,7 @@
 #include "proto/records.h"
 #include "core/scene/scene_file.h"
 #include "core/scene/builtin_scenes.h"
+#include "core/scene/motion_test_scene.h"
 #include "core/scene/scene_keys.h"
 #include <google/protobuf/struct.pb.h>
 
@@ -55,6 +56,16 @@ TEST(JobSpec, RejectsBadSpecsNamingTheField) {
   EXPECT_NE(message(s).find("spec.scene_files.scene.garment.seams: 'seams.txt' is not among the files sent"), std::string::npos)
       << message(s);
   (*s.mutable_scene_files()->mutable_files())["seams.txt"] = "0 1\n";
+  EXPECT_TRUE(ValidateJobSpec(s).ok()) << message(s);
+  v1::SceneMotion* reach = s.mutable_scene_files()->mutable_scene()->add_motions();
+  reach->set_deformed("reach.obj");
+  EXPECT_NE(message(s).find("spec.scene_files.scene.motions.deformed: 'reach.obj' is not among the files sent"), std::string::npos)
+      << message(s);
+  (*s.mutable_scene_files()->mutable_files())["reach.obj"] = "x";
+  reach->add_frames("reach_1.obj");
+  EXPECT_NE(message(s).find("spec.scene_files.scene.motions.frames: 'reach_1.obj' is not among the files sent"), std::string::npos)
+      << message(s);
+  (*s.mutable_scene_files()->mutable_files())["reach_1.obj"] = "x";
   EXPECT_TRUE(ValidateJobSpec(s).ok()) << message(s);
   (*s.mutable_scene_files()->mutable_files())["../etc/passwd"] = "x";
   EXPECT_NE(message(s).find("leaves the scene's folder"), std::string::npos);
@@ -166,6 +177,14 @@ TEST(SceneSchema, SceneFilesAreTheJsonFormOfTheSceneMessage) {
     if (a.motion && b.motion) {
       EXPECT_EQ(a.motion->frames.size(), b.motion->frames.size());
     }
+    ASSERT_EQ(a.motions.size(), b.motions.size());
+    for (size_t m = 0; m < a.motions.size(); ++m) {
+      EXPECT_EQ(a.motions[m].name, b.motions[m].name);
+      EXPECT_EQ(a.motions[m].role, b.motions[m].role);
+      EXPECT_EQ(a.motions[m].weight, b.motions[m].weight);
+      EXPECT_TRUE(a.motions[m].pose.deformed == b.motions[m].pose.deformed) << a.motions[m].name;
+      EXPECT_EQ(a.motions[m].pose.frames.size(), b.motions[m].pose.frames.size()) << a.motions[m].name;
+    }
   };
   auto round_trip = [&](const std::string& scene_path) {
     SCOPED_TRACE(scene_path);
@@ -180,13 +199,30 @@ TEST(SceneSchema, SceneFilesAreTheJsonFormOfTheSceneMessage) {
     ASSERT_TRUE(via_message.ok()) << via_message.message();
     same(*direct, *via_message);
   };
-  for (const char* name : {"pull_test_x", "sleeve_on_limb", "knee_flexion"}) {
+  // three_motion_sleeve: motions with roles, each with its poses, travel to the worker.
+  for (const char* name : {"pull_test_x", "sleeve_on_limb", "knee_flexion", "three_motion_sleeve"}) {
     std::filesystem::remove_all(tmp);
-    Result<SceneSpec> scene = BuiltinScene(name);
+    Result<SceneSpec> scene = std::string(name) == "three_motion_sleeve" ? ThreeMotionSleeve() : BuiltinScene(name);
     ASSERT_TRUE(scene.ok()) << scene.message();
     if (scene->motion) scene->motion->frames.resize(std::min<size_t>(scene->motion->frames.size(), 2));
+    for (SceneMotion& m : scene->motions) m.pose.frames.resize(std::min<size_t>(m.pose.frames.size(), 2));
     ASSERT_TRUE(ExportScene(*scene, tmp.string()).ok());
     round_trip((tmp / "scene.json").string());
+    if (!scene->motions.empty()) {
+      Result<v1::SceneFiles> files = ReadSceneFiles((tmp / "scene.json").string());
+      ASSERT_TRUE(files.ok()) << files.message();
+      EXPECT_EQ(files->scene().motions_size(), 3);
+      v1::JobSpec spec;
+      *spec.mutable_scene_files() = *files;
+      Result<SceneSpec> worker = SceneOfJob(spec);
+      ASSERT_TRUE(worker.ok()) << worker.message();
+      ASSERT_EQ(worker->motions.size(), scene->motions.size());
+      for (size_t m = 0; m < scene->motions.size(); ++m) {
+        EXPECT_EQ(worker->motions[m].name, scene->motions[m].name);
+        EXPECT_EQ(worker->motions[m].weight, scene->motions[m].weight);
+        EXPECT_TRUE(worker->motions[m].pose.deformed == scene->motions[m].pose.deformed) << scene->motions[m].name;
+      }
+    }
   }
   std::filesystem::remove_all(tmp);
   for (const auto& entry : std::filesystem::recursive_directory_iterator(std::string(KGD_SOURCE_DIR) + "/examples"))
@@ -210,6 +246,8 @@ TEST(SceneSchema, TheSchemaAndTheLoaderKnowTheSameKeys) {
                "project_contact_crossings": false}})";
   const char* cut = R"({"garment": {"region": [0, 1, 2], "subdivisions": 1, "design": "all_cloth"},
     "body": {"rest": "r.obj", "deformed": "d.obj", "frames": ["f1.obj", "f2.obj"]},
+    "motions": [{"name": "flex", "role": "resist", "weight": 1}, {"name": "reach", "role": "allow", "weight": 0,
+                 "deformed": "m1/d.obj", "frames": ["m1/f1.obj"]}],
     "attachments": {"body_faces": "ab.txt"}})";
   for (const char* text : {own, cut}) {
     Result<v1::Scene> scene = ParseSceneJson(text, "scene.json");

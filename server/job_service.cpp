@@ -78,9 +78,13 @@ ServiceStatus CheckLimits(const ServiceLimits& limits, const v1::JobSpec& spec) 
     return over("optimizer.maxIterations", spec.optimizer().max_iterations(), limits.max_iterations, "--max-iterations");
   if (!spec.has_scene_files()) return ServiceStatus::Ok();
   const v1::SceneFiles& files = spec.scene_files();
-  if (limits.max_frames > 0 && files.scene().body().frames_size() > limits.max_frames)
-    return over("body.frames: " + std::to_string(files.scene().body().frames_size()) + " frames;", files.scene().body().frames_size(),
-                limits.max_frames, "--max-frames");
+  // The frames of every motion: the body's own and the scene's other motions'.
+  int frames = files.scene().body().frames_size();
+  for (const v1::SceneMotion& m : files.scene().motions()) frames += m.frames_size();
+  if (limits.max_frames > 0 && frames > limits.max_frames)
+    return over(std::string(files.scene().motions_size() ? "body.frames and motions[].frames: " : "body.frames: ") + std::to_string(frames) +
+                    " frames;",
+                frames, limits.max_frames, "--max-frames");
   for (const auto& [name, bytes] : files.files()) {
     const auto [vertices, faces] = CountMesh(bytes);
     if (limits.max_mesh_vertices > 0 && vertices > limits.max_mesh_vertices)
@@ -475,6 +479,13 @@ ServiceStatus JobService::ListScenes(v1::ListScenesResponse* out) {
     b->set_parametric_body(s.parametric_body);
     b->set_garment_faces(s.garment_faces);
     b->set_garment_area_m2(s.garment_area_m2);
+    for (const BuiltinSceneInfo::Motion& m : s.motions) {
+      v1::BuiltinSceneMotion* bm = b->add_motions();
+      bm->set_name(m.name);
+      bm->set_role(ToString(m.role));
+      bm->set_weight(m.weight);
+    }
+    b->set_symmetric(s.symmetric);
     for (const auto& [preset, seconds] : PredictedSceneSeconds(s, machine.factor)) (*b->mutable_predicted_job_s())[preset] = seconds;
   }
   for (const MeasurementRange& r : BodyMeasurementRanges()) {

@@ -188,6 +188,44 @@ TEST_F(ImportInput, MixedGarmentKindsAreRefused) {
               "body.rest: only allowed with garment.region");
 }
 
+// A scene's motions from its file: a good one runs; a motion whose pose has another topology than
+// body.rest, a negative weight, an unknown role, a repeated name, a first motion that is not the
+// scene's own resisted one are refused, the message naming the file, the key and the motion.
+TEST_F(ImportInput, BadMotionsAreNamedWithTheirKeyAndMotion) {
+  Write("bend.obj", GridObj(-0.002));
+  Write("short.obj", GridObj(0, false, true));
+  Write("swapped.obj", GridObj(0, false, false, true));
+  const std::string body = R"({"rest": "rest.obj", "deformed": "pose.obj"})";
+  auto with_motions = [&](const std::string& motions) {
+    std::string scene = With(body);
+    return scene.substr(0, scene.rfind('}')) + R"(, "motions": )" + motions + "}";
+  };
+  const std::string flex = R"({"name": "flex"})";
+  const CommandRun good = Kgd("simulate --json " + Scene(with_motions("[" + flex + R"(, {"name": "bend", "role": "allow", "weight": 0.5,
+                                                                          "deformed": "bend.obj", "frames": ["bend.obj"]}])")));
+  EXPECT_EQ(good.exit_code, 0) << good.output;
+  const std::string file = (dir_ / "scene.json").string();
+  ExpectError(with_motions("[" + flex + R"(, {"name": "bend", "deformed": "short.obj"}])"),
+              file + ": motions[1].deformed (motion 'bend'): " + (dir_ / "short.obj").string() + ": has 11 vertices but " +
+                  (dir_ / "rest.obj").string() + " has 12");
+  ExpectError(with_motions("[" + flex + R"(, {"name": "bend", "deformed": "bend.obj", "frames": ["swapped.obj"]}])"),
+              file + ": motions[1].frames[0] (motion 'bend'): " + (dir_ / "swapped.obj").string() + ": face 1 differs");
+  ExpectError(with_motions("[" + flex + R"(, {"name": "bend", "weight": -1, "deformed": "bend.obj"}])"),
+              file + ": motions[1].weight: motion 'bend': weight -1 must be >= 0");
+  ExpectError(with_motions("[" + flex + R"(, {"name": "bend", "role": "tolerate", "deformed": "bend.obj"}])"),
+              file + ": motions[1].role: motion 'bend': role 'tolerate' is neither \"resist\" nor \"allow\"");
+  ExpectError(with_motions("[" + flex + R"(, {"name": "flex", "deformed": "bend.obj"}])"),
+              file + ": motions[1].name: motion 'flex': two motions have this name (motions[0])");
+  ExpectError(with_motions(R"([{"name": "flex", "role": "allow"}])"),
+              file + ": motions[0]: motion 'flex': the first motion is the scene's own and must be resisted with a weight > 0");
+  ExpectError(with_motions(R"([{"name": "flex", "deformed": "bend.obj"}])"),
+              file + ": motions[0].deformed: motion 'flex': the first motion is the scene's own: its poses are body.deformed");
+  ExpectError(with_motions("[" + flex + R"(, {"name": "bend"}])"), file + ": motions[1].deformed: motion 'bend': missing");
+  ExpectError(with_motions("[" + flex + R"(, {"deformed": "bend.obj"}])"), file + ": motions[1].name: missing");
+  ExpectError(with_motions("[" + flex + R"(, {"name": "bend", "pose": "bend.obj"}])"), file + ": motions[1].pose: unknown key");
+  ExpectError(R"({"garment": {"rest": "good.obj"}, "motions": [{"name": "flex"}]})", file + ": motions: only allowed with garment.region");
+}
+
 TEST(BodyOption, MeasurementsAreNamedAndChecked) {
   CommandRun r = Kgd("simulate knee_extension --body thigh=0.6");
   EXPECT_EQ(r.exit_code, 2);

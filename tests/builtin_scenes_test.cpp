@@ -13,9 +13,11 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <nlohmann/json.hpp>
 
+#include "core/beso/design_constraints.h"
 #include "core/mesh/mesh_io.h"
 #include "core/mesh/self_intersection.h"
 #include "core/mesh/topology.h"
@@ -82,6 +84,9 @@ TEST_P(BuiltinScene, PosesGarmentAndFullyReinforcedFrames) {
     if (info.name == name) {
       EXPECT_EQ(info.garment_faces, scene->garment.faces.rows()) << name;
       EXPECT_NEAR(info.garment_area_m2, FaceAreas(scene->garment.vertices, scene->garment.faces).sum(), 1e-4) << name;
+      // Listed symmetric exactly when the garment pairs with its mirror image (what --symmetric needs).
+      const Result<MirrorPairing> pairing = PairMirrorFaces(scene->garment, SymmetryPlane{});
+      EXPECT_EQ(info.symmetric, pairing.ok()) << name << ": " << pairing.message();
     }
   ASSERT_FALSE(scene->attachment_faces.empty());
   EXPECT_LT(scene->attachment_faces.size(), scene->garment.faces.rows() / 3);
@@ -174,6 +179,31 @@ TEST(BuiltinScenes, ListedWithTheirBudgets) {
     EXPECT_DOUBLE_EQ(m.budget, (m.name == "knee_flexion" || m.name == "slouch") ? 0.10 : 0.15) << m.name;
   }
   EXPECT_EQ(PaperMotions().size(), 7u);
+  // The list's motions: a paper scene's own, resisted with weight 1; a brace scene's with their roles
+  // and weights. A brace scene is symmetric as the paper scenes of its garment are (checked on the
+  // garments themselves in PosesGarmentAndFullyReinforcedFrames).
+  std::map<std::string, bool> symmetric_garment;
+  for (const BuiltinSceneInfo& info : BuiltinSceneInfos())
+    for (const PaperMotion& m : PaperMotions())
+      if (m.name == info.name) {
+        ASSERT_EQ(info.motions.size(), 1u) << m.name;
+        EXPECT_EQ(info.motions[0].name, m.name);
+        EXPECT_EQ(info.motions[0].role, MotionRole::kResist);
+        EXPECT_EQ(info.motions[0].weight, 1.0);
+        symmetric_garment[m.garment] = info.symmetric;
+      }
+  EXPECT_EQ(symmetric_garment, (std::map<std::string, bool>{{"shirt", true}, {"shorts", true}, {"sleeve_arm", false}, {"sleeve_knee", false}}));
+  for (const BuiltinSceneInfo& info : BuiltinSceneInfos())
+    for (const BraceScene& b : BraceScenes())
+      if (b.name == info.name) {
+        ASSERT_EQ(info.motions.size(), b.motions.size()) << b.name;
+        for (size_t k = 0; k < b.motions.size(); ++k) {
+          EXPECT_EQ(info.motions[k].name, b.motions[k].name);
+          EXPECT_EQ(info.motions[k].role, b.motions[k].role);
+          EXPECT_EQ(info.motions[k].weight, b.motions[k].weight);
+        }
+        EXPECT_EQ(info.symmetric, symmetric_garment.at(b.garment)) << b.name;
+      }
 }
 
 std::string RunKgd(const std::string& args, int* exit_code) {

@@ -12,7 +12,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -297,6 +299,29 @@ TEST_F(DesignCommand, AFinishedJobTunesThePredictionToThisMachine) {
   std::ifstream(cache / "cost_calibration.json") >> learned;
   EXPECT_EQ(learned["jobs"], 1);
   unsetenv("KGD_CACHE_DIR");
+}
+
+// `kgd scenes` lists each scene's motions with their roles and weights, the scene's own first, and
+// whether its garment is mirror symmetric (the shirt's is, the one-arm sleeve's is not).
+TEST_F(DesignCommand, ScenesListEachScenesMotionsAndSymmetry) {
+  const CommandRun r = Kgd("scenes");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::map<std::string, std::string> line_of;
+  std::istringstream lines(r.output);
+  for (std::string line; std::getline(lines, line);) line_of[line.substr(0, line.find(' '))] = line;
+  const size_t symmetric = line_of["name"].find("symmetric"), motions = line_of["name"].find("motions (role weight)");
+  ASSERT_NE(symmetric, std::string::npos) << r.output;
+  ASSERT_NE(motions, std::string::npos) << r.output;
+  auto column = [&](const std::string& scene, size_t at, size_t size) {
+    return line_of[scene].size() > at ? line_of[scene].substr(at, size) : "(no line for " + scene + ")";
+  };
+  EXPECT_EQ(column("arm_brace", symmetric, 3), "no ") << r.output;
+  EXPECT_EQ(column("posture_shirt", symmetric, 3), "yes") << r.output;
+  EXPECT_EQ(column("slouch", symmetric, 3), "yes") << r.output;
+  EXPECT_EQ(column("knee_flexion", symmetric, 3), "no ") << r.output;
+  EXPECT_EQ(column("arm_brace", motions, 38), "straighten (resist 1), bend (allow 1) ") << r.output;
+  EXPECT_EQ(column("posture_shirt", motions, 43), "slouch (resist 1), reach_forward (allow 1) ") << r.output;
+  EXPECT_EQ(column("knee_flexion", motions, 25), "knee_flexion (resist 1)  ") << r.output;
 }
 
 TEST_F(DesignCommand, EvaluateAndBaselinesReadTheFile) {

@@ -22,6 +22,7 @@
 #include "tests/kgd_cli.h"
 // After the Eigen-using headers above: see server/http_gateway.cpp.
 #include <httplib.h>
+#include <nlohmann/json.hpp>
 
 namespace kgd {
 namespace {
@@ -182,6 +183,19 @@ TEST_F(HttpApi, ScenesListTheBuiltinScenesAndTheBodyMeasurements) {
   EXPECT_GT(by_name["arm_flexion"].garment_area_m2(), 0.04);
   ASSERT_TRUE(by_name.count("pull_test_line"));
   EXPECT_FALSE(by_name["pull_test_line"].parametric_body());
+  // Each scene's motions (name, role, weight; the scene's own first) and whether its garment is mirror
+  // symmetric, in plain JSON the web form reads.
+  const nlohmann::json listed = nlohmann::json::parse(res->body);
+  std::map<std::string, nlohmann::json> json_of;
+  for (const nlohmann::json& s : listed["scenes"]) json_of[s["name"]] = s;
+  EXPECT_EQ(json_of["arm_brace"]["motions"], nlohmann::json::parse(R"([{"name": "straighten", "role": "resist", "weight": 1},
+                                                                       {"name": "bend", "role": "allow", "weight": 1}])"));
+  EXPECT_EQ(json_of["arm_brace"]["symmetric"], false);
+  EXPECT_EQ(json_of["arm_flexion"]["motions"], nlohmann::json::parse(R"([{"name": "arm_flexion", "role": "resist", "weight": 1}])"));
+  EXPECT_EQ(json_of["posture_shirt"]["motions"][1]["name"], "reach_forward");
+  EXPECT_EQ(json_of["posture_shirt"]["symmetric"], true);
+  EXPECT_EQ(json_of["slouch"]["symmetric"], true);
+  EXPECT_EQ(json_of["knee_brace"]["motions"][1]["role"], "allow");
   bool height = false;
   for (const auto& m : r.body_measurements())
     if (m.name() == "height_m") height = m.default_value() == 1.70 && m.min() < 1.70 && m.max() > 1.70;

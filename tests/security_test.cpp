@@ -619,6 +619,11 @@ TEST(SecurityLimits, EachLimitIsHitAndNamed) {
   httplib::MultipartFormDataItems frames = {
       {"scene", R"({"body": {"rest": "r.obj", "deformed": "d.obj", "frames": ["a.obj", "b.obj", "c.obj"]}})", "scene.json", "application/json"}};
   expect_limit(http.Post("/v1/jobs", frames), "--max-frames");
+  // The frames of the scene's other motions count too.
+  httplib::MultipartFormDataItems motion_frames = {
+      {"scene", R"({"body": {"rest": "r.obj", "deformed": "d.obj", "frames": ["a.obj"]},
+                    "motions": [{"name": "m"}, {"name": "n", "deformed": "e.obj", "frames": ["f.obj", "g.obj"]}]})", "scene.json", "application/json"}};
+  expect_limit(http.Post("/v1/jobs", motion_frames), "body.frames and motions[].frames: 3 frames; 3 is over the limit of 2 (--max-frames)");
   // Two jobs wait (no worker here); a third would be over the queue limit.
   const auto first = Outcome(http.Post("/v1/jobs", Job(5), "application/json"));
   ASSERT_EQ(first.first, "OK") << first.second;

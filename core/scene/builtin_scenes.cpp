@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <map>
 
+#include "core/beso/design_constraints.h"
 #include "core/scene/paper_scenes.h"
 #include "core/scene/scene_file.h"
 #include "core/scene/shapes.h"
@@ -152,6 +153,7 @@ std::vector<BuiltinSceneInfo> BuiltinSceneInfos() {
     for (const BraceMotion& m : b.motions) frames += m.frames;
     out.push_back({b.name, b.garment, b.description, b.budget, frames, b.subdivisions, true, it == size.end() ? 0 : it->second.first,
                    it == size.end() ? 0 : it->second.second});
+    for (const BraceMotion& m : b.motions) out.back().motions.push_back({m.name, m.role, m.weight});
   }
   for (const SizedScene& z : SizedScenes())
     for (const PaperMotion& m : PaperMotions())
@@ -168,13 +170,21 @@ std::vector<BuiltinSceneInfo> BuiltinSceneInfos() {
     if (paper) continue;
     BuiltinSceneInfo info{n, "", "", 1.0, 0, 0, false};
     info.description = n.rfind("pull_test", 0) == 0 ? "pull test of the paper's 2D validation" : "sleeve on a capsule limb (simulator checks)";
-    // These scenes are small and need no body: their budget is read off the scene itself.
+    // These scenes are small and need no body: their budget, motions and symmetry are read off the scene itself.
     if (Result<SceneSpec> s = BuiltinScene(n); s.ok()) {
       info.budget = s->budget;
       info.garment_faces = static_cast<int>(s->garment.faces.rows());
       info.garment_area_m2 = FaceAreas(s->garment.vertices, s->garment.faces).sum();
+      for (const SceneMotion& m : MotionsOf(*s)) info.motions.push_back({m.name, m.role, m.weight});
+      info.symmetric = PairMirrorFaces(s->garment, SymmetryPlane{}).ok();
     }
     out.push_back(info);
+  }
+  // The parametric body's garments that cover both sides are symmetric (tests/builtin_scenes_test pairs
+  // their faces); a scene of one motion weighs its own, resisted with weight 1.
+  for (BuiltinSceneInfo& info : out) {
+    if (info.parametric_body) info.symmetric = info.garment == "shirt" || info.garment == "shorts";
+    if (info.motions.empty()) info.motions = {{info.name, MotionRole::kResist, 1.0}};
   }
   return out;
 }

@@ -37,6 +37,16 @@ struct BuiltinSceneInfo {
   bool parametric_body = false;  // made to body measurements (--body, JobSpec.body)
   int garment_faces = 0;         // the garment's size on the default body
   double garment_area_m2 = 0;
+  // The motions a design weighs (MotionsOf), the scene's own first.
+  struct Motion {
+    std::string name;
+    MotionRole role = MotionRole::kResist;
+    double weight = 1.0;
+  };
+  std::vector<Motion> motions;
+  // The garment is mirror symmetric about the body's sagittal plane (x = 0), so that a design job may
+  // ask for symmetric designs (--symmetric): the shirt and the shorts, not the one-limb sleeves.
+  bool symmetric = false;
 };
 std::vector<BuiltinSceneInfo> BuiltinSceneInfos();
 Result<SceneSpec> BuiltinScene(const std::string& name);

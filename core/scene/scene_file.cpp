@@ -179,9 +179,65 @@ Status ReadEffects(const Reader& r, const json& doc, SceneSpec* s) {
   return Status::Ok();
 }
 
+// One entry of `motions` as the file gives it; its poses are read with the body's.
+struct MotionEntry {
+  SceneMotion motion;  // name, role, weight
+  std::string key;     // "motions[1]"
+  const json* deformed = nullptr;
+  std::vector<const json*> frames;
+};
+
+// `motions`: each a unique name, a role and a weight >= 0; the first is the scene's own (resisted, a
+// weight > 0, its poses body.deformed and body.frames), every other gives its deformed pose.
+Status ReadMotionEntries(const Reader& r, const json& doc, std::vector<MotionEntry>* out) {
+  if (!doc.contains(sk::Scene::motions)) return Status::Ok();
+  const json& ms = doc[sk::Scene::motions];
+  if (!ms.is_array() || ms.empty()) return r.Fail("motions", "must be a non-empty array of motions");
+  for (size_t i = 0; i < ms.size(); ++i) {
+    const json& m = ms[i];
+    MotionEntry e;
+    e.key = "motions[" + std::to_string(i) + "]";
+    KGD_RETURN_IF_ERROR(r.CheckKeys(m, e.key, "SceneMotion"));
+    if (!m.contains(sk::SceneMotion::name) || !m[sk::SceneMotion::name].is_string() || m[sk::SceneMotion::name].get<std::string>().empty())
+      return r.Fail(e.key + ".name", "missing (every motion needs a name, a non-empty string)");
+    e.motion.name = m[sk::SceneMotion::name].get<std::string>();
+    const std::string what = "motion '" + e.motion.name + "'";
+    for (size_t j = 0; j < out->size(); ++j)
+      if ((*out)[j].motion.name == e.motion.name) return r.Fail(e.key + ".name", what + ": two motions have this name (" + (*out)[j].key + ")");
+    if (m.contains(sk::SceneMotion::role)) {
+      const json& role = m[sk::SceneMotion::role];
+      Result<MotionRole> parsed = MotionRoleFromName(role.is_string() ? role.get<std::string>() : role.dump(), what);
+      if (!parsed.ok()) return r.Fail(e.key + ".role", parsed.message());
+      e.motion.role = *parsed;
+    }
+    KGD_RETURN_IF_ERROR(r.Number(m, e.key, sk::SceneMotion::weight, &e.motion.weight));
+    if (!(e.motion.weight >= 0)) return r.Fail(e.key + ".weight", what + ": weight " + m[sk::SceneMotion::weight].dump() + " must be >= 0");
+    if (i == 0) {
+      for (const char* k : {sk::SceneMotion::deformed, sk::SceneMotion::frames})
+        if (m.contains(k))
+          return r.Fail(e.key + "." + k, what + ": the first motion is the scene's own: its poses are body.deformed and body.frames");
+      if (e.motion.role != MotionRole::kResist || !(e.motion.weight > 0))
+        return r.Fail(e.key, what + ": the first motion is the scene's own and must be resisted with a weight > 0 (role " +
+                                 ToString(e.motion.role) + ", weight " + m.value(sk::SceneMotion::weight, json(1.0)).dump() + ")");
+    } else {
+      if (!m.contains(sk::SceneMotion::deformed)) return r.Fail(e.key + ".deformed", what + ": missing (every motion but the first gives its deformed pose)");
+      e.deformed = &m[sk::SceneMotion::deformed];
+      if (m.contains(sk::SceneMotion::frames)) {
+        const json& fr = m[sk::SceneMotion::frames];
+        if (!fr.is_array() || fr.empty()) return r.Fail(e.key + ".frames", what + ": must be a non-empty array of mesh file paths");
+        for (const json& f : fr) e.frames.push_back(&f);
+      }
+    }
+    out->push_back(std::move(e));
+  }
+  return Status::Ok();
+}
+
 // A garment cut from the body's motion: body.rest, body.deformed and body.frames (one topology), the
-// region (body faces), subdivisions and the attachment body faces.
-Status ReadGarmentCutFromBody(const Reader& r, const json& g, const json& b, const json& a, SceneSpec* s) {
+// region (body faces), subdivisions and the attachment body faces; and the poses of the other
+// `motions` (the same topology).
+Status ReadGarmentCutFromBody(const Reader& r, const json& g, const json& b, const json& a, const std::vector<MotionEntry>& motions,
+                              SceneSpec* s) {
   for (const char* k : {sk::SceneGarment::rest, sk::SceneGarment::initial})
     if (g.contains(k))
       return r.Fail(std::string("garment.") + k, "not allowed with garment.region (a garment cut from the body takes its shapes from body.rest and body.deformed)");
@@ -198,39 +254,68 @@ Status ReadGarmentCutFromBody(const Reader& r, const json& g, const json& b, con
   std::vector<std::string> names = {rest_file};
   // Every other pose: same vertex count and the very same faces as the rest mesh. A motion is a dozen
   // meshes of tens of MB of text: they are read in parallel, then checked in order.
-  std::vector<std::pair<std::string, const json*>> poses = {{"body.deformed", &b[sk::SceneBody::deformed]}};
+  // Each pose with its key and its motion (0: the body's own, m: motions[m]).
+  struct Pose {
+    std::string key;
+    const json* value;
+    size_t motion;
+    bool deformed;  // else a frame
+  };
+  std::vector<Pose> poses = {{"body.deformed", &b[sk::SceneBody::deformed], 0, true}};
   if (b.contains(sk::SceneBody::frames)) {
     const json& fr = b[sk::SceneBody::frames];
     if (!fr.is_array() || fr.empty()) return r.Fail("body.frames", "must be a non-empty array of mesh file paths");
-    for (size_t i = 0; i < fr.size(); ++i) poses.push_back({"body.frames[" + std::to_string(i) + "]", &fr[i]});
+    for (size_t i = 0; i < fr.size(); ++i) poses.push_back({"body.frames[" + std::to_string(i) + "]", &fr[i], 0, false});
   }
-  for (const auto& [key, v] : poses) {
-    if (!v->is_string()) return r.Fail(key, "must be a mesh file path");
-    names.push_back(r.Resolve(v->get<std::string>()));
+  for (size_t m = 1; m < motions.size(); ++m) {
+    poses.push_back({motions[m].key + ".deformed", motions[m].deformed, m, true});
+    for (size_t i = 0; i < motions[m].frames.size(); ++i)
+      poses.push_back({motions[m].key + ".frames[" + std::to_string(i) + "]", motions[m].frames[i], m, false});
   }
+  for (const Pose& p : poses) {
+    if (!p.value->is_string()) return r.Fail(p.key, "must be a mesh file path");
+    names.push_back(r.Resolve(p.value->get<std::string>()));
+  }
+  std::vector<BodyMotion> other(motions.size());  // other[m]: the poses of motions[m], m >= 1
   const int n = static_cast<int>(poses.size());
   std::vector<Result<TriMesh>> read(n, Status::Error(""));
 #pragma omp parallel for schedule(dynamic)
   for (int i = 0; i < n; ++i) read[i] = r.MeshFile(names[i + 1]);
   for (int i = 0; i < n; ++i) {
-    if (!read[i].ok()) return read[i].status();
+    const size_t m = poses[i].motion;
+    // A motion's pose is named with its key and motion besides its file.
+    const std::string context = m == 0 ? "" : r.file() + ": " + poses[i].key + " (motion '" + motions[m].motion.name + "'): ";
+    if (!read[i].ok()) return read[i].status().WithContext(context);
     const TriMesh& pose = *read[i];
     const std::string& file = names[i + 1];
     if (pose.vertices.rows() != motion.rest.rows())
-      return Status::Error(file + ": has " + std::to_string(pose.vertices.rows()) + " vertices but " + rest_file + " has " +
+      return Status::Error(context + file + ": has " + std::to_string(pose.vertices.rows()) + " vertices but " + rest_file + " has " +
                            std::to_string(motion.rest.rows()) + " (all poses must share one topology)");
     if (pose.faces.rows() != motion.faces.rows())
-      return Status::Error(file + ": has " + std::to_string(pose.faces.rows()) + " faces but " + rest_file + " has " +
+      return Status::Error(context + file + ": has " + std::to_string(pose.faces.rows()) + " faces but " + rest_file + " has " +
                            std::to_string(motion.faces.rows()) + " (all poses must share one topology)");
     for (Eigen::Index f = 0; f < motion.faces.rows(); ++f)
       if (pose.faces.row(f) != motion.faces.row(f))
-        return Status::Error(file + ": face " + std::to_string(f) + " differs from face " + std::to_string(f) + " of " + rest_file +
+        return Status::Error(context + file + ": face " + std::to_string(f) + " differs from face " + std::to_string(f) + " of " + rest_file +
                              " (all poses must share one topology)");
-    Positions& out = i == 0 ? motion.deformed : motion.frames.emplace_back();
+    if (m > 0) KGD_RETURN_IF_ERROR(ValidateMesh(pose.vertices, pose.faces, file).WithContext(context));
+    BodyMotion& owner = m == 0 ? motion : other[m];
+    Positions& out = poses[i].deformed ? owner.deformed : owner.frames.emplace_back();
     out = std::move(read[i]->vertices);
   }
   KGD_RETURN_IF_ERROR(ValidateBodyMotion(motion, names));
   s->motion = std::move(motion);
+  for (size_t m = 0; m < motions.size(); ++m) {
+    SceneMotion sm = motions[m].motion;
+    if (m == 0) {
+      sm.pose = *s->motion;
+    } else {
+      sm.pose = std::move(other[m]);
+      sm.pose.faces = s->motion->faces;
+      sm.pose.rest = s->motion->rest;
+    }
+    s->motions.push_back(std::move(sm));
+  }
   Result<std::vector<int>> region = r.Indices(g[sk::SceneGarment::region], "garment.region");
   if (!region.ok()) return region.status();
   s->garment_region = std::move(region).value();
@@ -248,7 +333,7 @@ Status ReadGarmentCutFromBody(const Reader& r, const json& g, const json& b, con
   }
   const std::string region_name = g[sk::SceneGarment::region].is_string() ? r.Resolve(g[sk::SceneGarment::region].get<std::string>()) : r.file() + ": garment.region";
   KGD_RETURN_IF_ERROR(CutGarmentFromMotion(s, region_name, attach_name));
-  return Status::Ok();
+  return ValidateSceneMotions(*s).WithContext(r.file() + ": motions: ");
 }
 
 // A garment mesh of its own, with optional start positions of the same topology.
@@ -550,7 +635,11 @@ Result<SceneSpec> LoadSceneText(const std::string& text, const std::string& path
   const json& a = doc.contains(sk::Scene::attachments) ? doc[sk::Scene::attachments] : no_object;
   KGD_RETURN_IF_ERROR(r.CheckKeys(a, "attachments", "SceneAttachments"));
   KGD_RETURN_IF_ERROR(r.Number(a, "attachments", sk::SceneAttachments::stiffness_N_per_m, &s.attachment_stiffness_N_per_m));
-  KGD_RETURN_IF_ERROR(g.contains(sk::SceneGarment::region) ? ReadGarmentCutFromBody(r, g, b, a, &s) : ReadGarmentOfItsOwn(r, g, b, a, &s));
+  std::vector<MotionEntry> motions;
+  KGD_RETURN_IF_ERROR(ReadMotionEntries(r, doc, &motions));
+  if (!motions.empty() && !g.contains(sk::SceneGarment::region))
+    return r.Fail("motions", "only allowed with garment.region (the motions share the body's rest pose and the garment cut in it)");
+  KGD_RETURN_IF_ERROR(g.contains(sk::SceneGarment::region) ? ReadGarmentCutFromBody(r, g, b, a, motions, &s) : ReadGarmentOfItsOwn(r, g, b, a, &s));
   KGD_RETURN_IF_ERROR(ReadDesign(r, g, &s));
   KGD_RETURN_IF_ERROR(ReadSeams(r, g, &s));
   KGD_RETURN_IF_ERROR(ReadDesignConstraints(r, g, &s));
@@ -620,9 +709,7 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
   if (s.bodies.size() > 1)
     return Status::Error(s.name + ": a scene file holds one body, and this scene weighs " + std::to_string(s.bodies.size()) +
                          " (its bodies run as the built-in scene: kgd design " + s.name + ")");
-  if (s.motions.size() > 1)
-    return Status::Error(s.name + ": a scene file holds one motion, and this scene weighs " + std::to_string(s.motions.size()) +
-                         " (its motions with roles run as the built-in scene: kgd design " + s.name + ")");
+  KGD_RETURN_IF_ERROR(ValidateSceneMotions(s).WithContext(s.name + ": "));
   const fs::path dir(dir_path);
   std::error_code ec;
   fs::create_directories(dir, ec);
@@ -652,6 +739,33 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
     KGD_RETURN_IF_ERROR(WriteIndexList((dir / "garment_region.txt").string(), s.garment_region));
     doc[sk::Scene::garment][sk::SceneGarment::region] = "garment_region.txt";
     doc[sk::Scene::garment][sk::SceneGarment::subdivisions] = s.subdivisions;
+    if (!s.motions.empty()) {
+      nlohmann::ordered_json motions = nlohmann::ordered_json::array();
+      for (size_t m = 0; m < s.motions.size(); ++m) {
+        const SceneMotion& sm = s.motions[m];
+        nlohmann::ordered_json entry = {{sk::SceneMotion::name, sm.name}, {sk::SceneMotion::role, ToString(sm.role)},
+                                        {sk::SceneMotion::weight, sm.weight}};
+        if (m > 0) {  // the first motion's poses are body.deformed and body.frames
+          const std::string folder = "motions/" + std::to_string(m);
+          fs::create_directories(dir / folder, ec);
+          if (ec) return Status::Error((dir / folder).string() + ": cannot create directory: " + ec.message());
+          KGD_RETURN_IF_ERROR(WriteObj((dir / folder / "deformed.obj").string(), sm.pose.deformed, s.motion->faces));
+          entry[sk::SceneMotion::deformed] = folder + "/deformed.obj";
+          if (!sm.pose.frames.empty()) {
+            nlohmann::ordered_json frames = nlohmann::ordered_json::array();
+            for (size_t i = 0; i < sm.pose.frames.size(); ++i) {
+              char file[64];
+              std::snprintf(file, sizeof file, "/frame_%02zu.obj", i + 1);
+              KGD_RETURN_IF_ERROR(WriteObj((dir / (folder + file)).string(), sm.pose.frames[i], s.motion->faces));
+              frames.push_back(folder + file);
+            }
+            entry[sk::SceneMotion::frames] = frames;
+          }
+        }
+        motions.push_back(entry);
+      }
+      doc[sk::Scene::motions] = motions;
+    }
   } else {
     KGD_RETURN_IF_ERROR(WriteObj((dir / "garment_rest.obj").string(), s.garment.vertices, s.garment.faces));
     doc[sk::Scene::garment][sk::SceneGarment::rest] = "garment_rest.obj";

@@ -5,7 +5,9 @@
 //
 // A scene file holds either a garment mesh of its own (garment.rest, with clamps, or on one body pose
 // with contact: body.mesh) or a garment cut from a body motion (garment.region on body.rest, with
-// body.deformed and optional body.frames, attachments as body faces). Every key, what it holds and
+// body.deformed and optional body.frames, attachments as body faces; then optionally `motions`, the
+// motions a design weighs: the first the body's own, every other with its deformed pose and frames over
+// body.rest, docs/MODEL.md "Motions with roles"). Every key, what it holds and
 // its unit: core/scene/scene_keys.h (`kgd scene keys` prints them); unknown keys are errors; units
 // SI; paths are relative to the scene file.
 // Attachment anchors are the centroids of the attached faces on the body in the simulated pose (for a
@@ -38,7 +40,9 @@ struct SceneBundle {
 // scene names but the bundle lacks is an error that names it.
 Result<SceneSpec> LoadScene(const SceneBundle& bundle, std::vector<std::string>* files_read = nullptr);
 
-// Writes `spec` as DIR/scene.json plus meshes (OBJ) and index lists; creates DIR if needed.
+// Writes `spec` as DIR/scene.json plus meshes (OBJ, coordinates exact) and index lists, its motions
+// with their poses (motions/M/deformed.obj, motions/M/frame_NN.obj); creates DIR if needed. A scene
+// whose motions ValidateSceneMotions refuses is refused.
 Status ExportScene(const SceneSpec& spec, const std::string& dir);
 
 }  // namespace kgd

@@ -22,6 +22,7 @@
   X(Scene, materials, "SceneMaterials: cloth and reinforcement")                                      \
   X(Scene, effects, "SceneEffects: the energy terms the scene simulates")                             \
   X(Scene, body, "SceneBody: one pose (contact), or a motion (rest, deformed, frames)")               \
+  X(Scene, motions, "[SceneMotion, ...]: with garment.region, the motions a design weighs (the first: the body's own)") \
   X(Scene, contact, "SceneContact: garment-body contact")                                             \
   X(Scene, attachments, "SceneAttachments: faces held to the body (straps, silicone)")                \
   X(Scene, clamps, "[SceneClamp, ...]: prescribed vertices")                                          \
@@ -53,6 +54,11 @@
   X(SceneBody, deformed, "with garment.region: its deformed pose")                                    \
   X(SceneBody, frames, "with garment.region: its frames, each with the topology of rest")             \
   X(SceneBody, support_scale, "the body field's support radius in mean body edge lengths")            \
+  X(SceneMotion, name, "the motion's name (unique in the scene)")                                     \
+  X(SceneMotion, role, "\"resist\" (default) or \"allow\"; the first motion is resisted")              \
+  X(SceneMotion, weight, "its weight in the objective, >= 0 (default 1; 0: simulated and reported only)") \
+  X(SceneMotion, deformed, "its deformed pose, the topology of body.rest (the first motion's: body.deformed)") \
+  X(SceneMotion, frames, "its frames, each the topology of body.rest (the first motion's: body.frames)") \
   X(SceneContact, stiffness_N_per_m, "contact penalty stiffness, N/m")                                \
   X(SceneAttachments, faces, "garment faces, \"faces.txt\" or [0, 1, ...]")                           \
   X(SceneAttachments, body_faces, "with garment.region: body faces inside the region")                \

@@ -7,6 +7,8 @@
 #include <iterator>
 #include <map>
 
+#include "core/beso/design_loop.h"
+#include "core/scene/motion_test_scene.h"
 #include "core/scene/simulate.h"
 #include "core/scene/scene_file.h"
 #include "core/scene/builtin_scenes.h"
@@ -82,19 +84,67 @@ TEST(Scene, ExportThenLoadReproducesTheBuiltinResult) {
   }
 }
 
-// A scene sent with a job is loaded from memory, not from a folder: the same scene as from its folder,
-// bit for bit, and a file the bundle lacks, or one that does not parse, is named as the scene names it.
-TEST(Scene, ASceneOfSeveralMotionsIsNotExportedAsOne) {
-  auto scene = BuiltinScene("pull_test_x");
-  ASSERT_TRUE(scene.ok());
-  scene->motions = {SceneMotion{"pull", MotionRole::kResist, 1.0, {}}, SceneMotion{"other", MotionRole::kAllow, 1.0, {}}};
-  const std::string dir = TempDir("two_motions");
-  const Status st = ExportScene(*scene, dir);
-  ASSERT_FALSE(st.ok());
-  EXPECT_NE(st.message().find("weighs 2"), std::string::npos) << st.message();
-  EXPECT_FALSE(std::filesystem::exists(dir + "/scene.json"));
+// A scene of several motions exports with them (names, roles, weights, each motion's poses) and loads
+// back as the same scene, bit for bit: the same motions over the same rest body and garment, and a
+// design of a few iterations from the file equals the one from the scene it was exported from.
+TEST(Scene, ASceneOfSeveralMotionsExportsAndLoadsAsItself) {
+  const Result<SceneSpec> built = ThreeMotionSleeve();
+  ASSERT_TRUE(built.ok()) << built.message();
+  const SceneSpec& scene = *built;
+  const std::string dir = TempDir("three_motions");
+  const Status exported = ExportScene(scene, dir);
+  ASSERT_TRUE(exported.ok()) << exported.message();
+  Result<SceneSpec> loaded = LoadScene(dir + "/scene.json");
+  ASSERT_TRUE(loaded.ok()) << loaded.message();
+  ASSERT_EQ(loaded->motions.size(), scene.motions.size());
+  for (size_t m = 0; m < scene.motions.size(); ++m) {
+    const SceneMotion &a = scene.motions[m], &b = loaded->motions[m];
+    SCOPED_TRACE(a.name);
+    EXPECT_EQ(b.name, a.name);
+    EXPECT_EQ(b.role, a.role);
+    EXPECT_EQ(b.weight, a.weight);
+    EXPECT_TRUE(b.pose.faces == a.pose.faces);
+    EXPECT_TRUE(b.pose.rest == a.pose.rest);
+    EXPECT_TRUE(b.pose.deformed == a.pose.deformed);
+    ASSERT_EQ(b.pose.frames.size(), a.pose.frames.size());
+    for (size_t k = 0; k < a.pose.frames.size(); ++k) EXPECT_TRUE(b.pose.frames[k] == a.pose.frames[k]) << "frame " << k;
+  }
+  EXPECT_TRUE(loaded->motion->rest == scene.motion->rest);
+  EXPECT_TRUE(loaded->garment.vertices == scene.garment.vertices);
+  EXPECT_TRUE(loaded->garment.faces == scene.garment.faces);
+  EXPECT_TRUE(loaded->initial == scene.initial);
+  EXPECT_EQ(loaded->attachment_faces, scene.attachment_faces);
+
+  BesoSettings quick;
+  quick.budget = 0.5;
+  quick.evolutionary_ratio = quick.admission_ratio = 0.06;
+  quick.max_iterations = 4;
+  const Result<std::vector<BesoIteration>> a = RunBeso(scene, quick), b = RunBeso(*loaded, quick);
+  ASSERT_TRUE(a.ok()) << a.message();
+  ASSERT_TRUE(b.ok()) << b.message();
+  ASSERT_EQ(a->size(), b->size());
+  for (size_t k = 0; k < a->size(); ++k) {
+    SCOPED_TRACE("iteration " + std::to_string(k));
+    EXPECT_EQ((*b)[k].design, (*a)[k].design);
+    EXPECT_TRUE((*b)[k].positions == (*a)[k].positions);
+    ASSERT_EQ((*b)[k].motions.size(), 3u);
+    for (size_t m = 0; m < 3; ++m) {
+      EXPECT_EQ((*b)[k].motions[m].energy_J, (*a)[k].motions[m].energy_J) << m;
+      EXPECT_EQ((*b)[k].motions[m].density_ratio, (*a)[k].motions[m].density_ratio) << m;
+    }
+  }
+  EXPECT_NE(a->front().design, a->back().design) << "the design changed over the iterations";
+
+  // A scene whose motions are refused is not exported.
+  SceneSpec bad = scene;
+  bad.motions[1].weight = -1;
+  const Status refused = ExportScene(bad, TempDir("bad_motions"));
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.message().find("motion 'extend': weight -1"), std::string::npos) << refused.message();
 }
 
+// A scene sent with a job is loaded from memory, not from a folder: the same scene as from its folder,
+// bit for bit, and a file the bundle lacks, or one that does not parse, is named as the scene names it.
 TEST(Scene, ABundleInMemoryLoadsAsTheSceneFolder) {
   for (const std::string name : {"pull_test_x", "sleeve_on_limb"}) {
     auto builtin = BuiltinScene(name);
