@@ -79,7 +79,9 @@ bench: build
 	bash bench/run.sh $(BUILD)
 
 # The design study of docs/RESULTS.md (scripts/design_study.sh): the paper's seven built-in scenes to the
-# budget, then the three scenes with roles, each also resist-only, and the symmetric shirt;
+# budget (about ten minutes on two cores), then the three scenes with roles, each also resist-only, and
+# the symmetric shirt (estimated 30-50 minutes more from short runs, the shirt's three runs most of it:
+# two motions of 33k faces whose solves take tens of Newton iterations per BESO step);
 # it writes Table 1, the curves and the roles' results into docs/RESULTS.md and the job times into
 # docs/PERFORMANCE.md between their markers (scripts/study_tables.py). STUDY picks runs: `make study
 # STUDY=paper` (the seven, about ten minutes), `make study STUDY="knee_flexion knee_brace+resist-only"`;
@@ -89,7 +91,8 @@ STUDY_COMMAND = make study$(if $(filter command line,$(origin STUDY)), STUDY="$(
 study: build
 	STUDY_COMMAND='$(STUDY_COMMAND)' bash scripts/design_study.sh $(BUILD) $(BUILD)/study $(STUDY)
 
-# The scenes with roles alone, with the single-motion jobs their time is compared with.
+# The scenes with roles alone, with the single-motion jobs their time is compared with (the roles' time
+# above and about three minutes).
 study-roles: build
 	STUDY_COMMAND='make study-roles' bash scripts/design_study.sh $(BUILD) $(BUILD)/study roles arm_flexion knee_flexion slouch
 
