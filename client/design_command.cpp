@@ -216,6 +216,7 @@ int RunDesign(const DesignOptions& o) {
     nlohmann::ordered_json j{{"event", "done"}, {"file", path}, {"iterations", end.iteration + 1}, {"area_fraction", end.area_fraction},
                              {"density_ratio", end.density_ratio}, {"seconds", elapsed}, {"end", why}};
     j["motions"] = MotionsJson(end.motions);
+    if (settings.max_pressure_Pa > 0) j["peak_pressure_Pa"] = end.peak_pressure_Pa, j["max_pressure_Pa"] = settings.max_pressure_Pa;
     if (!resume) j["predicted_s"] = predicted_s, j["machine_factor"] = machine.factor, j["machine_factor_jobs"] = machine.jobs;
     if (!evaluation_path.empty()) j["evaluation"] = evaluation_path;
     std::printf("%s\n", j.dump().c_str());
@@ -226,6 +227,9 @@ int RunDesign(const DesignOptions& o) {
                 end.iteration + 1, why.c_str(), 100 * end.area_fraction, end.reinforced_density_J_per_m2, end.density_ratio,
                 Duration(elapsed).c_str(), path.c_str());
     if (end.motions.size() > 1) PrintMotions(end);
+    if (settings.max_pressure_Pa > 0)
+      std::printf("  skin pressure peak %.3g kPa over the resisted motions' deformed poses (limit %.4g kPa); the limit keeps %.1f %% of the garment cloth\n",
+                  1e-3 * end.peak_pressure_Pa, 1e-3 * settings.max_pressure_Pa, 100 * end.pressure_kept_out_fraction);
   }
   if (!evaluation_path.empty() && bar) std::printf("evaluation (the design over the motion, Line and X beside it): %s\n", evaluation_path.c_str());
   return 0;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <string>
 #include <type_traits>
 
 namespace kgd::cli {
@@ -34,9 +35,15 @@ void AddOptimizerFlags(CLI::App* d, OptimizerFlags* o) {
         return CLI::detail::lexical_cast(text, v) && std::isfinite(v) ? std::string() : "'" + text + "' is not a finite number";
       },
       "FINITE");
-#define KGD_ADD_VALUE_FLAG(type, name, default_value, flag, help)        \
-  if constexpr (std::is_same_v<type, double>) d->add_option(flag, o->name, help)->check(finite); \
-  else d->add_option(flag, o->name, help);
+  // A flag named in kPa (--max-pressure-kPa) takes kPa for a setting held in Pa.
+  auto kpa = [](const char* flag) { const std::string f = flag; return f.size() > 4 && f.compare(f.size() - 4, 4, "-kPa") == 0; };
+#define KGD_ADD_VALUE_FLAG(type, name, default_value, flag, help)                                                          \
+  if constexpr (std::is_same_v<type, double>) {                                                                           \
+    if (kpa(flag)) d->add_option_function<double>(flag, [o](double v) { o->name = 1e3 * v; }, help)->check(finite);      \
+    else d->add_option(flag, o->name, help)->check(finite);                                                               \
+  } else {                                                                                                                \
+    d->add_option(flag, o->name, help);                                                                                   \
+  }
   KGD_BESO_VALUES(KGD_ADD_VALUE_FLAG)
 #undef KGD_ADD_VALUE_FLAG
 #define KGD_ADD_SWITCH_FLAG(name, default_value, flag, proto_field, help) d->add_flag(flag, o->name, help);

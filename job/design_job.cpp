@@ -45,7 +45,7 @@ std::vector<std::string> SplitWords(const std::string& text) {
 }
 
 Result<DesignJob> NewDesignJob(SceneSpec scene, const v1::OptimizerSettings& optimizer, std::string scene_name, std::string body) {
-  Result<BesoSettings> settings = SettingsOfJob(optimizer, scene.budget);
+  Result<BesoSettings> settings = SettingsOfJob(optimizer, scene.budget, scene.max_pressure_Pa);
   if (!settings.ok()) return settings.status();
   ApplySolverOverrides(optimizer, &scene.solver);
   KGD_RETURN_IF_ERROR(ApplyMotionWeights(optimizer, &scene));

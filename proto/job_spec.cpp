@@ -149,9 +149,10 @@ Status CheckSettingsFields() {
   return Status::Ok();
 }
 
-Result<BesoSettings> SettingsOfJob(const v1::OptimizerSettings& o, double scene_budget) {
+Result<BesoSettings> SettingsOfJob(const v1::OptimizerSettings& o, double scene_budget, double scene_max_pressure_Pa) {
   BesoSettings s;
   s.budget = scene_budget < 1 ? scene_budget : s.budget;
+  s.max_pressure_Pa = scene_max_pressure_Pa;
   const google::protobuf::Reflection* r = o.GetReflection();
   const google::protobuf::Descriptor* d = o.GetDescriptor();
   // Set values replace the defaults; switches given turn away from them.

@@ -22,9 +22,10 @@ Status ValidateJobSpec(const v1::JobSpec& spec);
 // the same name and type, and every KGD_BESO_SWITCHES entry its bool field.
 Status CheckSettingsFields();
 
-// The BESO settings of a spec for a scene whose own budget is `scene_budget` (1: none): unset fields
-// take the defaults, the budget the scene's. Errors name the field (as ValidateJobSpec).
-Result<BesoSettings> SettingsOfJob(const v1::OptimizerSettings& optimizer, double scene_budget);
+// The BESO settings of a spec for a scene whose own budget is `scene_budget` (1: none) and pressure
+// limit `scene_max_pressure_Pa` (0: none): unset fields take the defaults, the budget and the pressure
+// limit the scene's. Errors name the field (as ValidateJobSpec).
+Result<BesoSettings> SettingsOfJob(const v1::OptimizerSettings& optimizer, double scene_budget, double scene_max_pressure_Pa = 0);
 
 // Solver overrides of a spec (Newton iteration limit, gradient tolerance) applied to `solver`.
 void ApplySolverOverrides(const v1::OptimizerSettings& optimizer, SolverSettings* solver);

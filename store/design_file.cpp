@@ -22,8 +22,8 @@ constexpr const char* kFormat = "kgd design history";
 constexpr int kFormatVersion = 1;
 
 // Metric datasets, one per entry of KGD_BESO_METRICS: name, and whether they hold integers.
-// A metric is optional when files written before it existed lack its dataset (the solve profile): it
-// reads as 0 there, and appending to such a file adds the dataset.
+// A metric is optional when files written before it existed lack its dataset (the solve profile, the
+// pressure limit's): it reads as 0 there, and appending to such a file adds the dataset.
 struct MetricSpec {
   const char* name;
   bool integer;
@@ -40,7 +40,7 @@ const std::vector<MetricSpec>& Metrics() {
   static const std::vector<MetricSpec> m = [] {
 #define KGD_METRIC_SPEC(type, name, what) Metric(#name, &BesoIteration::name),
     std::vector<MetricSpec> all = {KGD_BESO_METRICS(KGD_METRIC_SPEC)};
-    const std::vector<MetricSpec> profile = {KGD_BESO_PROFILE_METRICS(KGD_METRIC_SPEC)};
+    const std::vector<MetricSpec> profile = {KGD_BESO_PROFILE_METRICS(KGD_METRIC_SPEC) KGD_BESO_PRESSURE_METRICS(KGD_METRIC_SPEC)};
 #undef KGD_METRIC_SPEC
     for (MetricSpec& s : all)
       for (const MetricSpec& p : profile) s.optional = s.optional || std::string_view(s.name) == p.name;

@@ -96,9 +96,10 @@ function clearErrors() {
 function showError(message) {
   const m = message.toLowerCase();
   const field = m.includes('budget') ? 'budget' : m.includes('max_iterations') || m.includes('maxiterations') ? 'maxIterations'
+    : m.includes('max_pressure') || m.includes('maxpressure') ? 'maxPressure'
     : m.includes('scene') || m.includes('body') || m.includes('part ') ? 'scene' : 'form';
   document.querySelector(`.error[data-for="${field}"]`).textContent = message;
-  const input = { budget: $('budget'), maxIterations: $('max-iterations') }[field];
+  const input = { budget: $('budget'), maxIterations: $('max-iterations'), maxPressure: $('max-pressure') }[field];
   if (input) input.classList.add('invalid');
 }
 
@@ -114,6 +115,12 @@ async function submit(ev) {
   }
   if ($('symmetric').checked) spec.optimizer.symmetric = true;
   if ($('resist-only').checked) spec.optimizer.resistOnly = true;
+  const pressure = $('max-pressure').value;
+  if (pressure !== '') {
+    const kPa = Number(pressure);
+    if (!(kPa >= 0 && Number.isFinite(kPa))) return showError(`max_pressure: ${pressure} kPa must be a number >= 0`);
+    spec.optimizer.maxPressurePa = 1e3 * kPa;
+  }
   if (iters !== '') {
     const n = Number(iters);
     if (!Number.isInteger(n) || n < 1) return showError(`maxIterations: ${iters} is not a whole number >= 1`);

@@ -30,7 +30,8 @@ namespace kgd {
   X(double, penalty, 1.6, "--penalty", "Interpolation exponent p, >= 1 (default 1.6)")                                  \
   X(double, tau, 1e-3, "--tau", "Stop when the objective changes by less than tau (relative) ... (default 1e-3)")      \
   X(int, converge_window, 5, "--window", "... over this many iterations, with the budget reached (default 5)")          \
-  X(int, max_iterations, 400, "--iterations", "Stop after this BESO iteration at the latest (default 400)")
+  X(int, max_iterations, 400, "--iterations", "Stop after this BESO iteration at the latest (default 400)") \
+  X(double, max_pressure_Pa, 0.0, "--max-pressure-kPa", "Skin pressure limit in every resisted motion's deformed pose, kPa (default: the scene's max_pressure_kPa; 0: none)")
 // Switches: X(name, default, flag, proto field, help). The flag, and the proto field when true, turn
 // the switch away from its default.
 #define KGD_BESO_SWITCHES(X)                                                                                            \
@@ -53,6 +54,8 @@ namespace kgd {
 // keep_attachments: attachment triangles stay reinforced. symmetric: every design is mirror symmetric
 // (core/beso/design_constraints.h; a scene with garment.symmetry is symmetric without it).
 // resist_only: the scene's allowed motions get weight 0 (docs/MODEL.md, "Motions with roles").
+// max_pressure_Pa: the skin pressure every design's resisted motions may put on the body at most, Pa
+// (0: no limit; core/beso/pressure_limit.h). A flag named in kPa (--max-pressure-kPa) takes kPa.
 struct BesoSettings {
 #define KGD_DECLARE_BESO_VALUE(type, name, default_value, flag, help) type name = default_value;
   KGD_BESO_VALUES(KGD_DECLARE_BESO_VALUE)

@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "core/beso/design_constraints.h"
+#include "core/beso/pressure_limit.h"
 #include "core/scene/simulate.h"
 
 namespace kgd {
@@ -105,6 +106,24 @@ std::vector<double> CaseWeights(const SceneSpec& scene, const std::vector<SceneM
   return w;
 }
 
+// What a pressure limit did to the last design, for DescribeBesoEnd: "" without a limit, or when it
+// holds and the budget is met.
+std::string PressureLimitNote(const BesoIteration& last, const BesoSettings& settings) {
+  if (!(settings.max_pressure_Pa > 0)) return "";
+  char buf[256];
+  if (last.peak_pressure_Pa > settings.max_pressure_Pa) {
+    std::snprintf(buf, sizeof buf, ": the last design still presses the skin %.3g kPa, above max_pressure_kPa %.4g", 1e-3 * last.peak_pressure_Pa,
+                  1e-3 * settings.max_pressure_Pa);
+    return buf;
+  }
+  if (last.area_fraction < 0.99 * settings.budget) {
+    std::snprintf(buf, sizeof buf, " at %.1f %% of the garment, below the budget of %.1f %%: max_pressure_kPa %.4g keeps %.1f %% of it cloth",
+                  100 * last.area_fraction, 100 * settings.budget, 1e-3 * settings.max_pressure_Pa, 100 * last.pressure_kept_out_fraction);
+    return buf;
+  }
+  return "";
+}
+
 }  // namespace
 
 double BesoIteration::*TermTimeMetric(std::string_view term) {
@@ -140,6 +159,8 @@ BesoEnd BesoEndOf(const std::vector<BesoIteration>& history, const BesoSettings&
   if (history.empty()) return BesoEnd::kRunning;
   if (NothingToResist(history.front())) return BesoEnd::kNothingToResist;
   if (history.back().iteration >= settings.max_iterations) return BesoEnd::kIterationLimit;
+  // With a pressure limit the last design must also keep it.
+  if (settings.max_pressure_Pa > 0 && history.back().peak_pressure_Pa > settings.max_pressure_Pa) return BesoEnd::kRunning;
   if (ObjectiveFlat(history, TargetReached(history.back().target_area_m2, settings.budget * garment_area_m2), settings.tau,
                     settings.converge_window))
     return BesoEnd::kConverged;
@@ -153,8 +174,8 @@ bool BesoFinished(const std::vector<BesoIteration>& history, const BesoSettings&
 std::string DescribeBesoEnd(BesoEnd end, const std::vector<BesoIteration>& history, const BesoSettings& settings) {
   switch (end) {
     case BesoEnd::kRunning: return "running";
-    case BesoEnd::kConverged: return "converged";
-    case BesoEnd::kIterationLimit: return "iteration limit (" + std::to_string(settings.max_iterations) + ")";
+    case BesoEnd::kConverged: return "converged" + PressureLimitNote(history.back(), settings);
+    case BesoEnd::kIterationLimit: return "iteration limit (" + std::to_string(settings.max_iterations) + ")" + PressureLimitNote(history.back(), settings);
     case BesoEnd::kNothingToResist: {
       char buf[200];
       std::snprintf(buf, sizeof buf,
@@ -217,7 +238,9 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
   // Keep-out, keep-in and symmetry: BESO then decides on units (design_constraints.h). Without them
   // the loop is the plain one below, unchanged.
   const std::optional<SymmetryPlane> plane = scene.symmetry ? scene.symmetry : settings.symmetric ? std::optional(SymmetryPlane{}) : std::nullopt;
-  const bool constrained = plane || !scene.keep_out_faces.empty() || !scene.keep_in_faces.empty();
+  // A pressure limit keeps faces out as the run goes (pressure_limit.h): it decides on units too.
+  const double limit_Pa = settings.max_pressure_Pa;
+  const bool constrained = plane || !scene.keep_out_faces.empty() || !scene.keep_in_faces.empty() || limit_Pa > 0;
   std::optional<MirrorPairing> pairing;
   std::optional<DesignUnits> units;
   if (constrained) {
@@ -287,6 +310,33 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
   if (last)
     for (MotionState& st : others)
       if (Result<SimulationResult> r = SolveMotion(&st, last->iteration, true); !r.ok()) return r.status();
+  // The pressure limit: every resisted motion's pressures at its last equilibrium, the peak over them,
+  // the area the limit keeps cloth. A resumed run starts its kept-out set from the stored design's
+  // equilibrium (the set is not stored), so it keeps the limit but may part from the uninterrupted run.
+  std::vector<Eigen::VectorXd> garment_pressure;
+  double peak_pressure = 0;
+  const double scene_kept_out_area = units ? KeptOutArea(*units, area) : 0.0;
+  auto measure_pressure = [&] {
+    garment_pressure.clear();
+    peak_pressure = 0;
+    auto add = [&](const SceneSpec& posed, const GarmentModel& model, const Positions& at) {
+      if (!posed.body) return;
+      PosePressure p = PressureInPose(*posed.body, model, at);
+      peak_pressure = std::max(peak_pressure, p.skin.peak_Pa);
+      garment_pressure.push_back(std::move(p.garment_Pa));
+    };
+    if (motions[0].role == MotionRole::kResist) add(scene, sys.model(), x);
+    for (const MotionState& st : others)
+      if (st.motion.role == MotionRole::kResist) add(st.scene, st.sys->model(), st.x);
+  };
+  if (limit_Pa > 0) {
+    std::vector<PressurePose> poses;
+    if (motions[0].role == MotionRole::kResist) poses.push_back({motions[0].name, &scene});
+    for (const MotionState& st : others)
+      if (st.motion.role == MotionRole::kResist) poses.push_back({st.motion.name, &st.scene});
+    if (!last) KGD_RETURN_IF_ERROR(CheckClothUnderPressureLimit(poses, limit_Pa));
+    else measure_pressure();
+  }
   for (int it = last ? last->iteration + 1 : 0; it <= settings.max_iterations; ++it) {
     BesoIteration b;
     const auto t_iteration = Clock::now();
@@ -322,6 +372,20 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
       b.filter_s = Since(t0);
       t0 = Clock::now();
       target = NextTargetArea(target, final_area, settings.evolutionary_ratio);
+      if (limit_Pa > 0 && peak_pressure > limit_Pa && TargetReached(target, final_area)) {
+        // The last design pressed the skin above the limit: keep out the faces where it did.
+        std::vector<uint8_t> may_keep_out(nf, 0);
+        for (int f = 0; f < nf; ++f) may_keep_out[f] = units->unit_of[f] >= 0 && !units->locked[units->unit_of[f]];
+        const std::vector<int> more = FacesToKeepOut(scene.garment.faces, nv, garment_pressure, limit_Pa, design, may_keep_out);
+        if (!more.empty()) {
+          scene.keep_out_faces.insert(scene.keep_out_faces.end(), more.begin(), more.end());
+          Result<DesignUnits> u = MakeDesignUnits(nf, scene.keep_out_faces, scene.keep_in_faces,
+                                                  settings.keep_attachments ? scene.attachment_faces : std::vector<int>{},
+                                                  pairing ? &*pairing : nullptr);
+          if (!u.ok()) return u.status();
+          units = std::move(u).value();
+        }
+      }
       design = units ? UpdateDesignOnUnits(*units, filtered, area, design, target, settings.admission_ratio * total_area)
                      : UpdateDesign(filtered, area, design, target, settings.admission_ratio * total_area,
                                     settings.keep_attachments ? &locked : nullptr);
@@ -374,6 +438,11 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
     b.energy_density_Pa = r.face_density_Pa;
     b.motions = std::move(motion_metrics);
     density = r.face_density_Pa;
+    if (limit_Pa > 0 && report.at_equilibrium()) {
+      measure_pressure();
+      b.peak_pressure_Pa = peak_pressure;
+      b.pressure_kept_out_fraction = (KeptOutArea(*units, area) - scene_kept_out_area) / total_area;
+    }
     b.total_s = Since(t_iteration);
     if (!report.at_equilibrium())
       return Status::Error("BESO iteration " + std::to_string(it) + ": the simulation did not converge (" + ToString(report.status) +

@@ -38,7 +38,14 @@ namespace kgd {
   X(double, filter_s, "filter and temporal averaging")                                                      \
   X(double, update_s, "design update (ranking, threshold, admission)")                                      \
   X(double, total_s, "the whole iteration")                                                                 \
-  KGD_BESO_PROFILE_METRICS(X)
+  KGD_BESO_PROFILE_METRICS(X)                                                                                \
+  KGD_BESO_PRESSURE_METRICS(X)
+
+// With a pressure limit (BesoSettings::max_pressure_Pa, core/beso/pressure_limit.h; 0 without one).
+// Design files written before these existed read 0.
+#define KGD_BESO_PRESSURE_METRICS(X)                                                                         \
+  X(double, peak_pressure_Pa, "the highest skin pressure over the resisted motions' deformed poses")       \
+  X(double, pressure_kept_out_fraction, "garment area fraction the pressure limit keeps cloth")
 
 // Where an iteration's equilibrium solve spent its time (s; Newton's parts, then each energy term's
 // evaluations, <key>_s for each term of the term list, core/sim/term_list.h: 0 for a term the scene
@@ -102,8 +109,12 @@ std::vector<MotionMetrics> MotionsOfJob(const SceneSpec& scene, const BesoSettin
 // (optional) sees every iteration as it lands; returning false stops the run. `resume` (optional):
 // records of an earlier run of the same scene and settings (iterations 0..k, complete for the last);
 // the run continues with iteration k + 1 and returns only the new records.
+// With settings.max_pressure_Pa (pressure_limit.h) the run converges only on a design that keeps the
+// limit; a resumed run re-derives the faces the limit keeps out from the last stored equilibrium (they
+// are not stored), so it keeps the limit but may part from the uninterrupted run.
 // Errors: bad settings, a scene that cannot be built, resume records that do not fit the scene, a
-// simulation that fails to converge (the message names the iteration).
+// simulation that fails to converge (the message names the iteration), a pressure limit the fully
+// cloth garment already breaks (the message names the limit, the peak and the motion).
 Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene, const BesoSettings& settings,
                                            const std::function<bool(const BesoIteration&)>& on_iteration = {},
                                            const std::vector<BesoIteration>* resume = nullptr);

@@ -87,6 +87,9 @@ struct SceneSpec {
   // never reinforced, keep_in faces always are; `symmetry`: every design is mirror symmetric about it.
   std::vector<int> keep_out_faces, keep_in_faces;
   std::optional<SymmetryPlane> symmetry;
+  // The skin pressure (core/sim/skin_pressure.h) a design job keeps every resisted motion's deformed
+  // pose at or below, Pa (key max_pressure_kPa; the job's default, core/beso/pressure_limit.h); 0: none.
+  double max_pressure_Pa = 0;
 
   // Garments cut from the body (garment.region). Then garment = the cut in the motion's rest pose,
   // initial = the cut in the deformed pose, body = the deformed body.

@@ -649,6 +649,12 @@ Result<SceneSpec> LoadSceneText(const std::string& text, const std::string& path
   }
   KGD_RETURN_IF_ERROR(r.Number(doc, "", sk::Scene::budget, &s.budget));
   if (!(s.budget > 0 && s.budget <= 1)) return r.Fail("budget", "must be in (0, 1] (a fraction of the garment area)");
+  if (doc.contains(sk::Scene::max_pressure_kPa)) {
+    double kpa = 0;
+    KGD_RETURN_IF_ERROR(r.Number(doc, "", sk::Scene::max_pressure_kPa, &kpa));
+    if (!(kpa > 0 && std::isfinite(kpa))) return r.Fail(sk::Scene::max_pressure_kPa, "must be finite and above 0 (a skin pressure, kPa)");
+    s.max_pressure_Pa = 1e3 * kpa;
+  }
   KGD_RETURN_IF_ERROR(ReadMaterials(r, doc, &s));
   KGD_RETURN_IF_ERROR(ReadContact(r, doc, b, &s));
   KGD_RETURN_IF_ERROR(ReadAttachmentFaces(r, a, &s));
@@ -718,6 +724,7 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
   doc[sk::Scene::name] = s.name;
   if (!s.description.empty()) doc[sk::Scene::description] = s.description;
   if (s.budget != 1.0) doc[sk::Scene::budget] = s.budget;
+  if (s.max_pressure_Pa > 0) doc[sk::Scene::max_pressure_kPa] = 1e-3 * s.max_pressure_Pa;
   if (s.motion) {
     KGD_RETURN_IF_ERROR(WriteObj((dir / "body_rest.obj").string(), s.motion->rest, s.motion->faces));
     KGD_RETURN_IF_ERROR(WriteObj((dir / "body_deformed.obj").string(), s.motion->deformed, s.motion->faces));

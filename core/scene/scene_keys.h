@@ -27,6 +27,7 @@
   X(Scene, attachments, "SceneAttachments: faces held to the body (straps, silicone)")                \
   X(Scene, clamps, "[SceneClamp, ...]: prescribed vertices")                                          \
   X(Scene, solver, "SceneSolver: the static solve")                                                   \
+  X(Scene, max_pressure_kPa, "design jobs keep the skin pressure of every resisted motion's deformed pose at or below this, kPa") \
   X(SceneGarment, rest, "a garment mesh of its own: OBJ or PLY, relative to the scene file")          \
   X(SceneGarment, initial, "its start positions (the deformed pose); default: the rest mesh")         \
   X(SceneGarment, region, "or: body faces of the rest pose, \"faces.txt\" or [0, 1, ...], 0-based")   \

@@ -298,12 +298,15 @@ try {
   await page.uncheck('#resist-only');
   await page.check('#symmetric');
   await page.fill('#max-iterations', '5');
+  await page.fill('#max-pressure', '3');
   await page.click('#submit-button');
   const thirdId = await until('the third job', () => page.evaluate((ids) => { const s = window.kgd.state.selected; return ids.includes(s) ? null : s; }, [jobId, secondId]));
   await page.uncheck('#symmetric');
+  await page.fill('#max-pressure', '');
   const third = await until('the symmetric job to fail', async () => { const j = await apiJson(base, `v1/jobs/${thirdId}`); return ['FAILED', 'SUCCEEDED'].includes(j.state) ? j : null; }, 120000).catch(() => ({}));
   check(third.spec?.optimizer?.symmetric === true && third.state === 'FAILED' && /not symmetric/.test(third.failure ?? ''),
     `the symmetric box reaches the job spec, and a one-armed sleeve is refused as not symmetric (state ${third.state}: ${third.failure ?? ''})`);
+  check(third.spec?.optimizer?.maxPressurePa === 3000, `the pressure limit (kPa) reaches the job spec in Pa (maxPressurePa ${third.spec?.optimizer?.maxPressurePa})`);
   const shownFailure = await until('the failure on the page', () => page.evaluate(() => document.getElementById('metrics').textContent), 10000).catch(() => '');
   check(/^failed: .*not symmetric/.test(shownFailure), `the page shows the failed job's reason ("${shownFailure.slice(0, 80)}")`);
   await page.screenshot({ path: path.join(artifacts, 'desktop-1280x800.png') });
