@@ -3,6 +3,7 @@
 // dropped connection and a Last-Event-ID resume, cancel, fetch iterations and their binary arrays,
 // upload a scene file, and bad requests each answered with its status and message.
 #include <google/protobuf/util/json_util.h>
+#include <google/protobuf/util/message_differencer.h>
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -247,6 +248,53 @@ TEST_F(HttpApi, AWatchDroppedMidJobResumesWithLastEventIdWithNoGapAndNoDuplicate
   for (const Event& e : second)
     if (e.type == "job") last_job = Parse<v1::Job>(e.data);
   EXPECT_EQ(last_job.state(), v1::SUCCEEDED);
+}
+
+// A job of two motions (knee_brace, the allowed flexion at a weight the spec gives): every iteration
+// the watch stream sends (what the page's charts read) carries both motions, each at a density ratio
+// of exactly 1 in the fully reinforced iteration 0 and the first one giving the iteration's own
+// figures; the ended job's last metrics carry the final motions, as the design file has them. (The job
+// is cancelled once iteration 0 is in: iteration 1 is still stored, and no evaluation is run.)
+TEST_F(HttpApi, ATwoMotionJobsMetricsCarryEachMotionAndTheEndedJobItsFinalMotions) {
+  const v1::Job job = Create(R"({"builtinScene": "knee_brace", "optimizer": {"maxIterations": 1, "motionWeights": {"flex": 0.5}}, "label": "motions"})");
+  ASSERT_EQ(job.spec().optimizer().motion_weights().at("flex"), 0.5);
+  const std::string id = std::to_string(job.id());
+  const std::vector<Event> events = WatchEvents(id, "", [&](const Event& e) {
+    if (e.type == "iteration" && e.id == "0") Service().Client().Post("/v1/jobs/" + id + ":cancel", "", "application/json");
+    return false;  // to the job's end
+  });
+  std::vector<v1::IterationMetrics> streamed;
+  for (const Event& e : events)
+    if (e.type == "iteration") streamed.push_back(Parse<v1::IterationRecord>(e.data).metrics());
+  const v1::Job done = Get(id);
+  ASSERT_TRUE(done.state() == v1::CANCELLED || done.state() == v1::SUCCEEDED) << v1::JobState_Name(done.state()) << " " << done.failure();
+  ASSERT_EQ(static_cast<int>(streamed.size()), done.iterations());
+  ASSERT_EQ(streamed.size(), 2u);
+  for (const v1::IterationMetrics& m : streamed) {
+    ASSERT_EQ(m.motions_size(), 2) << "iteration " << m.iteration();
+    EXPECT_EQ(m.motions(0).name(), "hyperextend");
+    EXPECT_EQ(m.motions(0).role(), "resist");
+    EXPECT_EQ(m.motions(0).weight(), 1.0);
+    EXPECT_EQ(m.motions(1).name(), "flex");
+    EXPECT_EQ(m.motions(1).role(), "allow");
+    EXPECT_EQ(m.motions(1).weight(), 0.5) << "the spec's weight, not the scene's 1";
+    EXPECT_EQ(m.motions(0).reinforced_energy_j(), m.reinforced_energy_j());
+    EXPECT_EQ(m.motions(0).density_ratio(), m.density_ratio());
+    for (const v1::MotionMetrics& mm : m.motions()) {
+      EXPECT_GT(mm.reinforced_energy_j(), 0) << mm.name();
+      if (m.iteration() == 0) {
+        EXPECT_EQ(mm.density_ratio(), 1.0) << mm.name() << ": against its own fully reinforced design";
+      }
+    }
+  }
+  // The ended job's final motions, and iteration 1 read back from the design file.
+  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(done.last(), streamed[1])) << done.last().DebugString();
+  auto res = Service().Client().Get("/v1/jobs/" + id + "/iterations/1");
+  ASSERT_TRUE(res && res->status == 200);
+  const v1::IterationMetrics from_file = Parse<v1::GetIterationResponse>(res->body).record().metrics();
+  ASSERT_EQ(from_file.motions_size(), 2);
+  for (int k = 0; k < 2; ++k)
+    EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(from_file.motions(k), streamed[1].motions(k))) << from_file.motions(k).DebugString();
 }
 
 // One sample of the Prometheus text at /metrics, e.g. Sample(text, "kgd_jobs{state=\"SUCCEEDED\"}"); -1: absent.
@@ -550,6 +598,12 @@ TEST_F(HttpApi, BadRequestsGetTheirStatusAndAMessageAndTheServerCarriesOn) {
       {"iteration not stored", [&] { return cli.Get("/v1/jobs/" + known + "/iterations/100000"); }, 404, "NOT_FOUND", "100000"},
       {"iteration not a number", [&] { return cli.Get("/v1/jobs/" + known + "/iterations/last"); }, 400, "INVALID_ARGUMENT", "'last'"},
       {"bad state filter", [&] { return cli.Get("/v1/jobs?state=DONE"); }, 400, "INVALID_ARGUMENT", "DONE"},
+      {"negative motion weight",
+       [&] { return cli.Post("/v1/jobs", R"({"builtinScene": "knee_brace", "optimizer": {"motionWeights": {"flex": -1}}})", "application/json"); },
+       400, "INVALID_ARGUMENT", "motion 'flex': weight -1 must be finite and >= 0"},
+      {"unknown motion",
+       [&] { return cli.Post("/v1/jobs", R"({"builtinScene": "knee_brace", "optimizer": {"motionWeights": {"kick": 1}}})", "application/json"); },
+       400, "INVALID_ARGUMENT", "motion 'kick': scene 'knee_brace' has no motion of this name"},
       {"unknown resource", [&] { return cli.Get("/v2/things"); }, 404, "NOT_FOUND", "/v2/things"},
   };
   for (const Case& c : cases) {

@@ -74,7 +74,46 @@ function sceneChanged() {
   const s = state.scenes.find((x) => x.name === $('scene').value);
   $('scene-description').textContent = s ? `${s.description}${s.frames ? ` ${s.frames} frames.` : ''}` : '';
   $('body-details').hidden = !s?.parametricBody;
+  showMotions(s);
   showPrediction();
+}
+
+const roleName = (role) => (role === 'allow' ? 'allowed' : 'resisted');
+
+// A scene of several motions: each with its role and an editable weight (the scene's own to start).
+// Servers that do not list motions show none.
+function showMotions(scene) {
+  const motions = scene?.motions || [];
+  const list = $('motion-list');
+  list.innerHTML = '';
+  $('motions-fields').hidden = motions.length < 2;
+  if (motions.length < 2) return;
+  for (const m of motions) {
+    const id = `motion-weight-${m.name}`;
+    const l = document.createElement('label');
+    l.htmlFor = id;
+    l.textContent = `${m.name} (${roleName(m.role)})`;
+    const i = document.createElement('input');
+    Object.assign(i, { id, type: 'number', min: 0, step: 0.1, value: m.weight ?? 0 });
+    i.dataset.motion = m.name;
+    i.dataset.sceneWeight = m.weight ?? 0;
+    list.append(l, i);
+  }
+}
+
+// The weights typed in the form that differ from the scene's; a message naming the motion for one
+// that is not a number >= 0 (the server's words).
+function motionWeights() {
+  const weights = {};
+  if ($('motions-fields').hidden) return { weights };
+  for (const i of document.querySelectorAll('#motion-list input')) {
+    const text = i.value.trim();
+    const w = Number(text);
+    if (text === '' || !Number.isFinite(w) || w < 0)
+      return { error: `motion_weights: motion '${i.dataset.motion}': weight ${text || '(none)'} must be finite and >= 0` };
+    if (w !== Number(i.dataset.sceneWeight)) weights[i.dataset.motion] = w;
+  }
+  return { weights };
 }
 
 // The server's cost model for the chosen scene and preset (a built-in scene on the default body), on
@@ -97,9 +136,12 @@ function showError(message) {
   const m = message.toLowerCase();
   const field = m.includes('budget') ? 'budget' : m.includes('max_iterations') || m.includes('maxiterations') ? 'maxIterations'
     : m.includes('max_pressure') || m.includes('maxpressure') ? 'maxPressure'
+    : (m.includes('motion_weights') || m.includes('motionweights')) && !$('motions-fields').hidden ? 'motions'
     : m.includes('scene') || m.includes('body') || m.includes('part ') ? 'scene' : 'form';
   document.querySelector(`.error[data-for="${field}"]`).textContent = message;
-  const input = { budget: $('budget'), maxIterations: $('max-iterations'), maxPressure: $('max-pressure') }[field];
+  const motion = /motion '([^']*)'/.exec(message)?.[1];
+  const input = { budget: $('budget'), maxIterations: $('max-iterations'), maxPressure: $('max-pressure'),
+    motions: [...document.querySelectorAll('#motion-list input')].find((i) => i.dataset.motion === motion) }[field];
   if (input) input.classList.add('invalid');
 }
 
@@ -129,6 +171,9 @@ async function submit(ev) {
   try {
     let job;
     if (document.querySelector('input[name=source]:checked').value === 'builtin') {
+      const { weights, error } = motionWeights();
+      if (error) return showError(error);
+      if (Object.keys(weights).length) spec.optimizer.motionWeights = weights;
       spec.builtinScene = $('scene').value;
       spec.body = [...document.querySelectorAll('#body-fields input')].filter((i) => i.value !== '').map((i) => `${i.dataset.measurement}=${i.value}`);
       job = await api.createJob(spec);
@@ -216,6 +261,24 @@ function showFailure(job) {
   $('metrics').textContent = job?.state === 'FAILED' ? `failed: ${job.failure || 'no reason given'}` : '';
 }
 
+// A job of several motions: each motion's figures at its last stored iteration (the final design's
+// once the job has ended).
+function showMotionSummary(job) {
+  const motions = job?.last?.motions || [];
+  const box = $('motions-summary');
+  box.hidden = motions.length < 2;
+  if (box.hidden) return;
+  const ended = !['QUEUED', 'RUNNING'].includes(job.state);
+  $('motions-summary-title').textContent = `${ended ? 'Final motions' : 'Motions'} (iteration ${job.last.iteration ?? 0}):`;
+  const ul = box.querySelector('ul');
+  ul.innerHTML = '';
+  for (const m of motions) {
+    const li = document.createElement('li');
+    li.textContent = `${m.name} (${roleName(m.role)}, weight ${+(m.weight ?? 0).toPrecision(3)}): density ratio ${(m.densityRatio ?? 0).toFixed(3)}, reinforced energy ${(m.reinforcedEnergyJ ?? 0).toPrecision(3)} J`;
+    ul.append(li);
+  }
+}
+
 async function select(id) {
   id = String(id);
   if (state.watch) state.watch.close();
@@ -230,6 +293,7 @@ async function select(id) {
   $('scrub').max = 0;
   $('scrub').value = 0;
   showFailure(state.job);
+  showMotionSummary(state.job);
   renderDownloads();
   // The server ends the stream of an ended job once it has sent every iteration; EventSource would
   // reconnect to it every two seconds for as long as the page stays open.
@@ -243,6 +307,7 @@ async function select(id) {
       state.jobs.set(job.id, job);
       renderJobs();
       showFailure(job);
+      showMotionSummary(job);
       renderDownloads();
       if (job.state === 'SUCCEEDED' && !state.evaluation) loadEvaluation(id);
     },
@@ -251,6 +316,7 @@ async function select(id) {
       const n = m.iteration ?? 0;
       state.metrics[n] = m;
       charts.add(m);
+      if (n === state.metrics.length - 1 && state.job) showMotionSummary({ ...state.job, last: m });
       const last = state.metrics.length - 1;
       $('scrub').max = last;
       if ($('follow').checked && !state.useFrame && target().kind === 'iteration') { $('scrub').value = last; show(); }

@@ -3,8 +3,8 @@
 // server, submit a job and follow it live (the chart grows, the 3D view draws each new iteration's
 // positions and design), scrub to the first and the server's last iteration and compare what is drawn
 // with the API's positions and design, download a PLY, cancel a second job (the server's state becomes
-// CANCELLED), lay out at desktop and tablet widths, and follow a job through the event stream on a
-// server with tokens. Screenshots go to --artifacts.
+// CANCELLED), weigh a scene's two motions in the form and see each motion's lines in the charts, lay out
+// at desktop and tablet widths, and follow a job through the event stream on a server with tokens. Screenshots go to --artifacts.
 // Exit 77 (ctest: skipped) with a message where Chromium or playwright-core is absent.
 //   node tests/web/page_test.mjs --kgd build/client/kgd --artifacts build/test-artifacts/web
 import { spawn } from 'node:child_process';
@@ -309,6 +309,51 @@ try {
   check(third.spec?.optimizer?.maxPressurePa === 3000, `the pressure limit (kPa) reaches the job spec in Pa (maxPressurePa ${third.spec?.optimizer?.maxPressurePa})`);
   const shownFailure = await until('the failure on the page', () => page.evaluate(() => document.getElementById('metrics').textContent), 10000).catch(() => '');
   check(/^failed: .*not symmetric/.test(shownFailure), `the page shows the failed job's reason ("${shownFailure.slice(0, 80)}")`);
+
+  // A scene of two motions (knee_brace): the form lists them with their roles and weights; a negative
+  // weight is refused on the page (nothing posted) and by the server, each naming the motion; a weight
+  // typed reaches the job; its charts draw one line per motion, and once it has ended its summary lists
+  // the final motions.
+  await page.selectOption('#scene', 'knee_brace');
+  const formMotions = await page.evaluate(() => [...document.querySelectorAll('#motion-list label')].map((l) => l.textContent));
+  check(await page.isVisible('#motions-fields') && formMotions.join(', ') === 'hyperextend (resisted), flex (allowed)'
+    && (await page.inputValue('#motion-weight-flex')) === '1', `the form lists knee_brace's motions with their roles and weights (${formMotions.join(', ')})`);
+  await page.fill('#budget', '');
+  await page.fill('#max-iterations', '2');
+  await page.fill('#motion-weight-flex', '-1');
+  const postsBefore = jobPosts.length;
+  await page.click('#submit-button');
+  const weightError = await until('the weight error', () => page.textContent('.error[data-for="motions"]'), 10000).catch(() => '');
+  check(/motion 'flex'.*>= 0/.test(weightError) && jobPosts.length === postsBefore && await page.evaluate(() => document.getElementById('motion-weight-flex').classList.contains('invalid')),
+    `a negative weight is refused on the page, next to the motions ("${weightError}"; ${jobPosts.length - postsBefore} job posted)`);
+  const refused = await fetch(`${base}v1/jobs`, { method: 'POST', headers: { 'Content-Type': 'application/json' },
+    body: JSON.stringify({ builtinScene: 'knee_brace', optimizer: { motionWeights: { flex: -1 } } }) });
+  const refusedText = await refused.text();
+  check(refused.status === 400 && /motion 'flex'.*>= 0/.test(refusedText), `the server refuses it too (HTTP ${refused.status}: ${refusedText.trim().slice(0, 140)})`);
+  await page.fill('#motion-weight-flex', '0.5');
+  await page.click('#submit-button');
+  const fourthId = await until('the knee_brace job', () => page.evaluate((ids) => { const s = window.kgd.state.selected; return ids.includes(s) ? null : s; }, [jobId, secondId, thirdId]));
+  const weights = (await apiJson(base, `v1/jobs/${fourthId}`)).spec?.optimizer?.motionWeights;
+  check(JSON.stringify(weights) === '{"flex":0.5}', `the weight typed reaches the job spec, the unchanged one left to the scene (${JSON.stringify(weights)})`);
+  const lines = await until('two motion lines in the charts', () => page.evaluate(() => {
+    const r = window.kgd.charts.motionRatio, e = window.kgd.charts.motionEnergy;
+    if (!r || !e || r.data[0].length < 2 || document.getElementById('figure-motion-ratio').hidden) return null;
+    return { series: r.series.slice(1).map((x) => ({ label: x.label, dashed: !!x.dash })), ratio: r.data.slice(1), energy: e.data.slice(1) };
+  }), 240000).catch(() => null);
+  const stored1 = lines && (await apiJson(base, `v1/jobs/${fourthId}/iterations/1`)).record.metrics.motions;
+  check(lines?.series.length === 2 && lines.energy.length === 2 && /^hyperextend \(resisted, weight 1\)/.test(lines.series[0].label) && !lines.series[0].dashed
+    && /^flex \(allowed, weight 0\.5\)/.test(lines.series[1].label) && lines.series[1].dashed
+    && [0, 1].every((k) => lines.ratio[k][1] === stored1[k].densityRatio && lines.energy[k][1] === stored1[k].reinforcedEnergyJ),
+    `the charts draw each motion's density ratio and reinforced energy, the allowed one dashed, as the API has them (${lines ? lines.series.map((x) => `${x.label}${x.dashed ? ' dashed' : ''}`).join('; ') : 'no lines'})`);
+  // Ended early (its design is not evaluated): the summary then shows the last stored iteration's motions.
+  await fetch(`${base}v1/jobs/${fourthId}:cancel`, { method: 'POST' });
+  await until('the knee_brace job to end', async () => ['SUCCEEDED', 'CANCELLED', 'FAILED'].includes((await apiJson(base, `v1/jobs/${fourthId}`)).state), 240000).catch(() => {});
+  const summary = await until('the final motions', () => page.evaluate(() => {
+    const t = document.getElementById('motions-summary');
+    return !t.hidden && /^Final motions/.test(t.textContent) ? [...t.querySelectorAll('li')].map((li) => li.textContent) : null;
+  }), 20000).catch(() => []);
+  check(summary.length === 2 && /^hyperextend \(resisted, weight 1\): density ratio [\d.]+, reinforced energy/.test(summary[0]) && /^flex \(allowed, weight 0\.5\)/.test(summary[1]),
+    `the finished job's summary lists its final motions (${summary.join('; ')})`);
   await page.screenshot({ path: path.join(artifacts, 'desktop-1280x800.png') });
 
   // Tablet width: one column, nothing wider than the screen.
