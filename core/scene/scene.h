@@ -132,7 +132,6 @@ Status ValidateSceneBodies(const SceneSpec& spec);
 // Precondition: ValidateSceneBodies(spec) is ok.
 Result<SceneSpec> SceneOnBody(const SceneSpec& spec, int b);
 
-
 // Ok for a scene without `motions`; else: a garment cut from the body, unique non-empty names,
 // finite weights >= 0, every pose over the scene's rest body (same topology and rest positions), the
 // first motion resisted with a positive weight. The message names the motion.
