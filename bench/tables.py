@@ -213,6 +213,8 @@ def service(r):
     lat = sorted((l for l in d["latency"] if not l["pinned"]), key=lambda l: l["watchers"])
     if len(lat) < 2 or "overhead" not in d:
         raise Missing("the service benchmark's latency with 1 and W watchers and its overhead")
+    if any(l["worker_s_per_iteration"] <= 0 for l in lat):
+        raise Missing("the worker's time per iteration of every latency run (a run whose watcher saw no iteration)")
     one, many = lat[0], lat[-1]
     rows = [f"| watchers (`{one['scene']}`, {one['iterations']} iterations) | p50 | p99 | server CPU per iteration | worker s per iteration |", "|---|---|---|---|---|"]
     for l in lat:
@@ -223,7 +225,7 @@ def service(r):
     o = d["overhead"]
     rows += ["", f"{many['watchers']} watchers cost the worker {worker:+.0f} % per iteration (their threads share its cores) and the server "
                  f"{per_watcher:.2f} ms of CPU per iteration each. `{o['scene']}`, {o['iterations']} iterations, best of {o['repeat']}: "
-                 f"`kgd design` locally {o['local_s']:.2f} s, through server and worker {o['service_s']:.2f} s "
+                 f"`kgd design` locally {o['local_s']:.2f} s, through server and worker {o['service_s']:.2f} s to the last iteration's record "
                  f"({100 * (o['service_s'] / o['local_s'] - 1):+.0f} %)."]
     return rows
 
@@ -234,7 +236,7 @@ def web(r):
     return [
         "| measure | how | today |", "|---|---|---|",
         f"| worker report to Server-Sent Event | an arm-flexion job of {e['iterations']} iterations watched by {e['watchers']} "
-        f"`:watch?view=metrics` streams at once ({e['complete']} saw every iteration, {e['failed']} failed); arrival time minus the "
+        f"`:watch?view=metrics` streams at once ({e['complete']} saw every iteration, {e['failed']} refused or failed); arrival time minus the "
         f"iteration's `reportTimeS`, over {e['events']:,} events | p50 {e['p50_ms']:.1f} ms, p99 {e['p99_ms']:.1f} ms |",
         "| page ready | headless Chromium (Debian's, software WebGL) from navigation to the scene list and the jobs list shown, "
         f"median of {p['pages']} fresh pages | {p['median_ms']:.0f} ms (slowest {p['max_ms']:.0f} ms) |",

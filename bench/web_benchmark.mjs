@@ -32,7 +32,7 @@ const percentile = (v, p) => { const s = [...v].sort((a, b) => a - b); return s[
 
 const data = fs.mkdtempSync(path.join(os.tmpdir(), 'kgd_web_bench_'));
 const [grpcPort, httpPort] = [await freePort(), await freePort()];
-const serve = spawn(kgd, ['serve', '--data', data, '--listen', `127.0.0.1:${grpcPort}`, '--http', `127.0.0.1:${httpPort}`, '--quiet'], { stdio: ['ignore', 'pipe', 'inherit'] });
+const serve = spawn(kgd, ['serve', '--data', data, '--listen', `127.0.0.1:${grpcPort}`, '--http', `127.0.0.1:${httpPort}`, '--max-watchers-per-job', '0', '--quiet'], { stdio: ['ignore', 'pipe', 'inherit'] });
 let out = '';
 serve.stdout.on('data', (d) => { out += d; });
 while (!out.includes('web page')) await new Promise((r) => setTimeout(r, 50));
@@ -61,6 +61,13 @@ try {
   for (let w = 0; w < watchers; ++w) {
     done.push(new Promise((resolve) => {
       const req = http.get(`${base}/v1/jobs/${job.id}:watch?view=metrics`, { agent }, (res) => {
+        if (res.statusCode !== 200) {  // refused (a limit): a failed watcher, not a connected one
+          ++failed;
+          console.error(`watcher: HTTP ${res.statusCode}`);
+          res.resume();
+          res.on('end', resolve);
+          return;
+        }
         ++open;
         let buffer = '', events = 0;
         res.on('data', (chunk) => {

@@ -324,7 +324,7 @@ class BenchTables(unittest.TestCase):
         self.assertIn("| watchers (`arm_flexion`, 31 iterations) |", r.stdout)
         self.assertIn("100 watchers cost the worker +15 % per iteration", r.stdout)
         self.assertIn("0.20 ms of CPU per iteration each", r.stdout)
-        self.assertIn("through server and worker 4.38 s (-30 %)", r.stdout)
+        self.assertIn("through server and worker 4.38 s to the last iteration's record (-30 %)", r.stdout)
         r = self.run_tables("scaling-sustain", ["scale_arm"])
         self.assertEqual(r.returncode, 0, r.stderr)
         self.assertIn("takes 0.100 s per arm-flexion iteration", r.stdout)
