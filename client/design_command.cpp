@@ -186,6 +186,16 @@ int RunDesign(const DesignOptions& o) {
   std::signal(SIGTERM, SIG_DFL);
   if (bar) std::printf("\n");
   if (!write_status.ok()) return Fail("design", write_status.message());
+  // Refused before its first iteration (the scene or the settings: a garment that is not symmetric, a
+  // pressure limit the cloth garment already breaks): bad input; the new file holds no iteration and goes.
+  if (!run.ok() && metrics.empty()) {
+    writer.reset();
+    if (!resume) {
+      std::error_code ec;
+      std::filesystem::remove(path, ec);
+    }
+    return Fail("design", run.message(), 2);
+  }
   if (!run.ok()) return Fail("design", run.message() + " (iterations so far are in " + path + ")", 3);
   const BesoIteration end = metrics.empty() ? BesoIteration{} : metrics.back();
   if (g_interrupted) {

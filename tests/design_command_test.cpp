@@ -205,6 +205,12 @@ TEST_F(DesignCommand, BadParametersAreRefused) {
   EXPECT_FALSE(fs::exists(Path("bad.h5"))) << "nothing is written for a refused job";
   CommandRun r = Kgd("design no_such_scene --out " + Path("x.h5"));
   EXPECT_EQ(r.exit_code, 2) << r.output;
+  // Refused before its first iteration: bad input (2), the reason named, no design file left behind.
+  r = Kgd("design knee_flexion --symmetric --iterations 1 --out " + Path("sym.h5"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("the garment is not symmetric about the plane"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("iterations so far"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(Path("sym.h5"))) << "nothing is written for a job refused before its first iteration";
   std::ofstream(Path("text.h5")) << "not hdf5\n";
   r = Kgd("designs " + Path("text.h5"));
   EXPECT_EQ(r.exit_code, 2);
