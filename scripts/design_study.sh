@@ -62,7 +62,8 @@ for run in "${runs[@]}"; do
   fi
   case " ${roles[*]} " in
     *" $run "*) rm -rf "$out/$run.export"
-                "$kgd" export "$out/$run.h5" --out "$out/$run.export" --formats png > /dev/null 2> "$out/$run.export.log" || true ;;
+                # The preview of the pattern pieces; a sheet wide enough for the shirt's back panel.
+                "$kgd" export "$out/$run.h5" --out "$out/$run.export" --formats png --sheet-width-mm 1000 > /dev/null 2> "$out/$run.export.log" || true ;;
   esac
 done
 for block in results-table-1 results-curves results-roles performance-motions performance-predicted; do
