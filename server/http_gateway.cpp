@@ -313,7 +313,14 @@ void HttpGateway::Impl::CutFileRoutes() {
                                          : name.ends_with(".png")  ? "image/png"
                                          : name.ends_with(".json") ? "application/json"
                                                                    : "application/dxf";
-                res.set_header("Content-Disposition", "attachment; filename=\"job-" + std::to_string(id) + "-" + name + "\"");
+                // The file's name says which iteration it is of (the last stored, for -1: the report says which).
+                int k = n;
+                if (const auto report = out.files().find("report.json"); report != out.files().end()) {
+                  const nlohmann::json j = nlohmann::json::parse(report->second, nullptr, /*allow_exceptions=*/false);
+                  if (j.is_object() && j.contains("iteration") && j["iteration"].is_number_integer()) k = j["iteration"].get<int>();
+                }
+                res.set_header("Content-Disposition",
+                               "attachment; filename=\"job-" + std::to_string(id) + "-iteration-" + std::to_string(k) + "-" + name + "\"");
                 res.set_content(it->second, type.c_str());
               });
 }

@@ -33,7 +33,8 @@
 //        the body's vertices (float32, m), F float32 (J/m^2), the skin pressure per body vertex (float32, Pa)
 //   GET  /v1/jobs/{id}/evaluation/baselines/{line,x}/{positions.f32,design.u8,energy.f32}   a baseline's arrays
 //   GET  /v1/jobs/{id}/iterations/{n}/cut/{pattern,patches}.{svg,dxf,png}, report.json   cut files (docs/FABRICATION.md;
-//        ?minFeatureMm=&seamAllowanceMm=&sheetWidthMm=&mirror=false), made by geometry alone
+//        ?minFeatureMm=&seamAllowanceMm=&sheetWidthMm=&mirror=false), made by geometry alone; downloads named
+//        job-{id}-iteration-{k}-{file}, k the iteration exported (the last stored for n = -1)
 //   GET  /                                               the web page (static files of web_dir)
 //
 // The handlers only translate (path and query to request, status to HTTP status, messages to JSON,

@@ -449,6 +449,21 @@ TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
     EXPECT_EQ(served(together, "computed") - served(after, "computed"), 1) << "one export made for four requests";
     EXPECT_EQ(served(together, "cache") - served(after, "cache"), 3);
   }
+  // A cut file's name says which iteration it is of: the one asked for, and for -1 the last stored.
+  EXPECT_EQ(cut->get_header_value("Content-Disposition"), "attachment; filename=\"job-" + id + "-iteration-" + n + "-patches.svg\"");
+  auto first_report = cli.Get("/v1/jobs/" + id + "/iterations/1/cut/report.json");
+  ASSERT_TRUE(first_report && first_report->status == 200) << (first_report ? first_report->body : "no response");
+  EXPECT_EQ(first_report->get_header_value("Content-Disposition"), "attachment; filename=\"job-" + id + "-iteration-1-report.json\"");
+  EXPECT_NE(first_report->body.find("\"iteration\": 1,"), std::string::npos) << first_report->body.substr(0, 200);
+  auto last_svg = cli.Get("/v1/jobs/" + id + "/iterations/-1/cut/patches.svg");
+  ASSERT_TRUE(last_svg && last_svg->status == 200) << (last_svg ? last_svg->body : "no response");
+  EXPECT_EQ(last_svg->get_header_value("Content-Disposition"), "attachment; filename=\"job-" + id + "-iteration-" + n + "-patches.svg\"");
+  EXPECT_EQ(last_svg->body, cut->body);
+  // An option outside what `kgd export` takes is refused, naming it and its range.
+  auto wide_seam = cli.Get("/v1/jobs/" + id + "/iterations/" + n + "/cut/pattern.svg?seamAllowanceMm=200");
+  ASSERT_TRUE(wide_seam);
+  EXPECT_EQ(wide_seam->status, 400);
+  EXPECT_NE(wide_seam->body.find("seamAllowanceMm) 200 mm is not a finite number in [0, 100] mm"), std::string::npos) << wide_seam->body;
   // An export the server computes streams its stages before the files.
   const auto computed = cli_test::Kgd("export " + id + " --iteration " + n + " --seam-allowance-mm 12 --server " + Service().grpc() + " --out " + out + "-12");
   ASSERT_EQ(computed.exit_code, 0) << computed.output;

@@ -47,6 +47,7 @@ async function check(res) {
 }
 
 export async function getJson(path) { return (await check(await request(path))).json(); }
+export async function getText(path) { return (await check(await request(path))).text(); }
 
 export async function postJson(path, body) {
   const res = await request(path, { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body ?? {}) });

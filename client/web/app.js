@@ -3,6 +3,8 @@
 import * as api from './api.js';
 import { GarmentView } from './view3d.js';
 import { RunCharts } from './charts.js';
+import { Compare } from './compare.js';
+import { CutPanel, CUT_FILES } from './cut_files.js';
 
 const $ = (id) => document.getElementById(id);
 const state = {
@@ -20,6 +22,12 @@ const view = new GarmentView($('view'));
 const charts = new RunCharts();
 // For the browser tests: what is on screen.
 window.kgd = { state, view, charts, rendered: 0 };
+// The compare view takes the one-job viewer's place; the cut files' options and sheet previews are of
+// the iteration shown; a point clicked on a chart shows its iteration.
+const compare = new Compare({ onOpen: () => { $('viewer').hidden = true; }, onClose: () => { $('viewer').hidden = false; } });
+const cutPanel = new CutPanel($('cut-panel'), { links: false, collapsed: true, onChange: () => renderDownloads() });
+charts.onPick = (n) => { const s = $('scrub'); s.value = n; s.dispatchEvent(new Event('input')); };
+Object.assign(window.kgd, { compare, cutPanel });
 
 function status(text) { $('server-status').textContent = text; }
 
@@ -248,6 +256,7 @@ async function refreshJobs() {
     const r = await api.jobs(50);
     state.jobs = new Map((r.jobs || []).map((j) => [j.id, j]));
     renderJobs();
+    compare.setJobs(state.jobs);
     status(`connected · ${state.jobs.size} job${state.jobs.size === 1 ? '' : 's'}`);
   } catch (e) {
     status(`server unreachable (${e.message})`);
@@ -281,6 +290,7 @@ function showMotionSummary(job) {
 
 async function select(id) {
   id = String(id);
+  compare.close();
   if (state.watch) state.watch.close();
   Object.assign(state, { selected: id, job: state.jobs.get(id) || null, metrics: [], shown: -1, pending: null, evaluation: null, useFrame: false });
   $('explorer').hidden = true;
@@ -406,6 +416,7 @@ async function show() {
         if (mode === 'pressure' && !pressure) status(state.evaluation ? 'this job has no skin pressure (no body or no contact)' : 'skin pressure: shown once the job has finished and its design was evaluated over the motion');
         state.shown = t.kind === 'iteration' ? t.n : state.evaluation.iteration;
         state.target = t;
+        charts.setShown(state.shown);
         window.kgd.rendered++;
         $('scrub-value').textContent = `${state.shown} / ${state.metrics.length - 1}`;
         $('metrics').textContent = describe(t);
@@ -444,6 +455,7 @@ function renderDownloads() {
   const d = $('downloads');
   d.innerHTML = '';
   const id = state.selected;
+  cutPanel.setTarget(state.target?.kind === 'baseline' ? null : id, state.shown);
   if (!id || state.shown < 0) return;
   const ply = document.createElement('a');
   ply.href = `/v1/jobs/${id}/iterations/${state.shown}/design.ply`;
@@ -453,9 +465,10 @@ function renderDownloads() {
   // Cut files for fabrication (made on request: a second or two).
   const cut = document.createElement('span');
   cut.textContent = 'Cut files: ';
-  for (const name of ['pattern.svg', 'patches.svg', 'pattern.dxf', 'patches.dxf', 'pattern.png', 'patches.png', 'report.json']) {
+  const cutQuery = cutPanel.query();  // null: an option out of range (the panel below says which)
+  for (const name of cutQuery === null ? [] : CUT_FILES) {
     const a = document.createElement('a');
-    a.href = `/v1/jobs/${id}/iterations/${state.shown}/cut/${name}`;
+    a.href = `/v1/jobs/${id}/iterations/${state.shown}/cut/${name}${cutQuery}`;
     a.download = `job-${id}-iteration-${state.shown}-${name}`;
     a.textContent = name;
     a.setAttribute('aria-label', `Download the cut file ${name} of iteration ${state.shown}`);
