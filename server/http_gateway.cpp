@@ -378,7 +378,7 @@ void HttpGateway::Impl::EvaluationRoutes() {
     v1::GetIterationResponse it;
     if (EvaluatedIteration(req, res, e, &it)) SetEnergyPerArea(res, it.garment(), it.record().design(), f.energy_density_pa());
   });
-  http.Get(R"(/v1/jobs/([^/:]+)/evaluation/baselines/([^/]+)/(positions\.f32|design\.u8|energy\.f32))", [this](const Request& req, Response& res) {
+  http.Get(R"(/v1/jobs/([^/:]+)/evaluation/baselines/([^/]+)/(positions\.f32|design\.u8|energy\.f32|design\.ply))", [this](const Request& req, Response& res) {
     v1::DesignEvaluation e;
     if (!Evaluation(req, res, &e)) return;
     const v1::BaselineRecord* b = nullptr;
@@ -389,7 +389,18 @@ void HttpGateway::Impl::EvaluationRoutes() {
       return res.set_content(LittleEndianBytes(std::vector<float>(b->positions().begin(), b->positions().end())), "application/octet-stream");
     if (req.matches[3] == "design.u8") return res.set_content(b->design(), "application/octet-stream");
     v1::GetIterationResponse it;
-    if (EvaluatedIteration(req, res, e, &it)) SetEnergyPerArea(res, it.garment(), b->design(), b->energy_density_pa());
+    if (!EvaluatedIteration(req, res, e, &it)) return;
+    if (req.matches[3] == "energy.f32") return SetEnergyPerArea(res, it.garment(), b->design(), b->energy_density_pa());
+    // The baseline as the garment PLY of an iteration: its design, positions and energies in the garment's.
+    v1::IterationRecord& r = *it.mutable_record();
+    r.set_design(b->design());
+    *r.mutable_positions() = b->positions();
+    *r.mutable_energy_density_pa() = b->energy_density_pa();
+    const std::string name = "job-" + std::string(req.matches[1]) + "-baseline-" + b->name() + ".ply";
+    std::string ply;
+    if (!Answered(res, IterationPly(it, name, &ply))) return;
+    res.set_header("Content-Disposition", "attachment; filename=\"" + name + "\"");
+    res.set_content(ply, "application/octet-stream");
   });
 }
 

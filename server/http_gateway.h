@@ -31,7 +31,8 @@
 //   GET  /v1/jobs/{id}/evaluation                        DesignEvaluation, its arrays left out (404: none yet)
 //   GET  /v1/jobs/{id}/evaluation/frames/{k}/{positions,body,energy,pressure}.f32   frame k (1..): V x 3 float32 (m),
 //        the body's vertices (float32, m), F float32 (J/m^2), the skin pressure per body vertex (float32, Pa)
-//   GET  /v1/jobs/{id}/evaluation/baselines/{line,x}/{positions.f32,design.u8,energy.f32}   a baseline's arrays
+//   GET  /v1/jobs/{id}/evaluation/baselines/{line,x}/{positions.f32,design.u8,energy.f32}   a baseline's arrays;
+//        .../design.ply: the baseline as binary PLY (download; as an iteration's)
 //   GET  /v1/jobs/{id}/iterations/{n}/cut/{pattern,patches}.{svg,dxf,png}, report.json   cut files (docs/FABRICATION.md;
 //        ?minFeatureMm=&seamAllowanceMm=&sheetWidthMm=&mirror=false), made by geometry alone; downloads named
 //        job-{id}-iteration-{k}-{file}, k the iteration exported (the last stored for n = -1)

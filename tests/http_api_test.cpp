@@ -386,6 +386,14 @@ TEST_F(HttpApi, IterationsAndTheirBinaryArraysAgreeWithTheRecord) {
   EXPECT_EQ(bytes("/evaluation/baselines/line/design.u8").size(), static_cast<size_t>(nf));
   EXPECT_EQ(floats(bytes("/evaluation/baselines/x/positions.f32")).size(), static_cast<size_t>(3 * nv));
   EXPECT_EQ(floats(bytes("/evaluation/baselines/x/energy.f32")).size(), static_cast<size_t>(nf));
+  // A baseline as PLY: its own design per face (after 3 + 3 int indices; then its energy density).
+  const std::string line_ply = bytes("/evaluation/baselines/line/design.ply");
+  const size_t body_at = line_ply.find("end_header\n") + 11;
+  ASSERT_EQ(line_ply.size(), body_at + 24 * static_cast<size_t>(nv) + 22 * static_cast<size_t>(nf)) << line_ply.substr(0, 300);
+  std::string line_design(nf, '\0');
+  for (int f = 0; f < nf; ++f) line_design[f] = line_ply[body_at + 24 * nv + 22 * f + 13];
+  EXPECT_EQ(line_design, bytes("/evaluation/baselines/line/design.u8"));
+  EXPECT_NE(line_design, rec.design()) << "the Line's, not the optimized design's";
   auto no_frame = cli.Get("/v1/jobs/" + id + "/evaluation/frames/1/positions.f32");
   ASSERT_TRUE(no_frame);
   EXPECT_EQ(no_frame->status, 404);
