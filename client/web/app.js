@@ -3,6 +3,8 @@
 import * as api from './api.js';
 import { GarmentView } from './view3d.js';
 import { RunCharts } from './charts.js';
+import { EnergyScale } from './colour_scale.js';
+import * as viewer from './viewer_controls.js';
 import { Compare } from './compare.js';
 import { CutPanel, CUT_FILES } from './cut_files.js';
 
@@ -20,6 +22,7 @@ const state = {
 };
 const view = new GarmentView($('view'));
 const charts = new RunCharts();
+const energyScale = new EnergyScale();
 // For the browser tests: what is on screen.
 window.kgd = { state, view, charts, rendered: 0 };
 // The compare view takes the one-job viewer's place; the cut files' options and sheet previews are of
@@ -216,7 +219,7 @@ function progressOf(job) {
   const perIt = (m.totalS ?? 0);
   const done = job.state !== 'RUNNING' && job.state !== 'QUEUED';
   const eta = done ? '' : ` · ~${Math.round(left * perIt)} s left`;
-  return { text: `${job.iterations} it, ratio ${(m.densityRatio ?? 0).toFixed(2)}${eta}`, fraction: done ? 1 : job.iterations / total };
+  return { text: `iteration ${job.iterations - 1}, ratio ${(m.densityRatio ?? 0).toFixed(2)}${eta}`, fraction: done ? 1 : job.iterations / total };
 }
 
 function renderJobs() {
@@ -305,6 +308,7 @@ async function select(id) {
   showFailure(state.job);
   showMotionSummary(state.job);
   renderDownloads();
+  viewer.revealViewer();
   // The server ends the stream of an ended job once it has sent every iteration; EventSource would
   // reconnect to it every two seconds for as long as the page stays open.
   const es = api.watch(id, {
@@ -399,9 +403,11 @@ async function show() {
       const mode = $('color-mode').value;
       const t = target();
       const { x, values, body, pressure } = await fetchTarget(id, t, mode);
+      // Energy: the job's one scale (colour_scale.js), or the top typed.
+      const scale = mode === 'energy' ? await energyScale.top(id, t, values, state.metrics.length - 1, state.evaluation, Number($('energy-top').value)) : null;
       if (state.selected === id) {
-        let max = 0;
-        if (mode === 'energy') { const s = [...values].sort((a, b) => a - b); max = s[Math.floor(0.98 * (s.length - 1))] || 0; }
+        state.energyScale = scale;
+        const max = scale?.top || 0;
         view.setBodyPose(body);
         state.pressureFigures = pressure ? pressureFigures(pressure) : null;
         // Skin pressure: the body coloured up to the peak, the garment by its design.
@@ -413,12 +419,14 @@ async function show() {
         $('colorbar-max').textContent = pressure ? `${(state.pressureFigures.peak / 1e3).toPrecision(3)}` : `≥ ${max.toPrecision(3)}`;
         $('colorbar-min').textContent = '0';
         $('colorbar-unit').textContent = pressure ? 'kPa' : 'J/m²';
+        viewer.showEnergyScale(pressure ? null : state.energyScale);
         if (mode === 'pressure' && !pressure) status(state.evaluation ? 'this job has no skin pressure (no body or no contact)' : 'skin pressure: shown once the job has finished and its design was evaluated over the motion');
         state.shown = t.kind === 'iteration' ? t.n : state.evaluation.iteration;
         state.target = t;
         charts.setShown(state.shown);
         window.kgd.rendered++;
-        $('scrub-value').textContent = `${state.shown} / ${state.metrics.length - 1}`;
+        $('scrub-value').textContent = viewer.scrubText(t, state.shown, state.metrics.length - 1, state.evaluation);
+        viewer.showFrameControls(t, state.evaluation, state.pending);
         $('metrics').textContent = describe(t);
         renderDownloads();
       }
@@ -448,6 +456,7 @@ async function loadEvaluation(id) {
     const last = state.metrics[e.iteration];
     const parts = (e.baselines || []).map((b) => `${b.name === 'x' ? 'X' : 'Line'} ${(b.densityRatio ?? 0).toFixed(2)}`);
     $('baseline-figures').textContent = parts.length ? `density ratios: optimized ${(last?.densityRatio ?? 0).toFixed(2)}, ${parts.join(', ')}` : (e.note || '');
+    if (state.shown >= 0) show();  // the job's energy scale and the controls, now with the evaluation
   } catch { /* none (yet) */ }
 }
 
@@ -458,9 +467,8 @@ function renderDownloads() {
   cutPanel.setTarget(state.target?.kind === 'baseline' ? null : id, state.shown);
   if (!id || state.shown < 0) return;
   const ply = document.createElement('a');
-  ply.href = `/v1/jobs/${id}/iterations/${state.shown}/design.ply`;
-  ply.download = `job-${id}-iteration-${state.shown}.ply`;
-  ply.textContent = `Download iteration ${state.shown} (PLY)`;
+  const link = viewer.shownDesignLink(id, state.target, state.shown);
+  Object.assign(ply, { href: link.href, download: link.download, textContent: link.text });
   d.append(ply);
   // Cut files for fabrication (made on request: a second or two).
   const cut = document.createElement('span');
@@ -475,6 +483,7 @@ function renderDownloads() {
     cut.append(a, ' ');
   }
   d.append(cut);
+  cut.hidden = state.target?.kind === 'baseline';  // cut files are made of the run's iterations
   const ended = state.job && !['QUEUED', 'RUNNING'].includes(state.job.state);
   if (ended) {
     const h5 = document.createElement('a');
@@ -511,7 +520,14 @@ $('frame').addEventListener('input', () => {
   show();
 });
 for (const r of document.querySelectorAll('input[name=compare]')) r.addEventListener('change', () => show());
-$('color-mode').addEventListener('change', () => state.shown >= 0 && show());
+$('color-mode').addEventListener('change', () => {
+  $('energy-scale').hidden = $('color-mode').value !== 'energy';
+  if (state.shown >= 0) show();
+});
+$('energy-top').addEventListener('change', () => state.shown >= 0 && show());
+for (const b of document.querySelectorAll('#camera-controls button[data-view]')) b.addEventListener('click', () => view.setView(b.dataset.view));
+$('download-image').addEventListener('click', () => state.shown >= 0 && viewer.downloadImage(view, {
+  id: state.selected, t: state.target, shown: state.shown, evaluation: state.evaluation, mode: $('color-mode').value, caption: $('metrics').textContent }));
 $('show-body').addEventListener('change', () => view.showBody($('show-body').checked));
 
 loadScenes().catch((e) => status(`cannot load scenes: ${e.message}`));

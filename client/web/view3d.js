@@ -1,7 +1,23 @@
 // The garment on the body in 3D: three.js, orbit controls, the garment coloured per face by its
-// design or by its energy per area, the body semi-transparent or coloured by skin pressure.
+// design or by its energy per area, the body semi-transparent or coloured by skin pressure. The camera
+// frames the garment shown, whatever its pose: from the view chosen (front, back, the garment's side, or
+// the default between front and side), or from where the user orbited to, at the user's zoom.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+
+// The body's axes in kgd's scenes (core/body/parametric_body.h): +y up, +z the body's front, +x its left.
+const UP = new THREE.Vector3(0, 1, 0), FRONT = new THREE.Vector3(0, 0, 1), LEFT = new THREE.Vector3(1, 0, 0);
+// Where the camera looks from, as a direction from the garment; `side` is +1 for a garment on the body's
+// left, -1 on its right. The default sees the front and the garment's side a little from above: a
+// sleeve from its side, never down its cut end.
+const VIEWS = {
+  reset: (side) => FRONT.clone().addScaledVector(LEFT, 0.6 * side).addScaledVector(UP, 0.35),
+  front: () => FRONT.clone(),
+  back: () => FRONT.clone().negate(),
+  side: (side) => LEFT.clone().multiplyScalar(side),
+};
+// The share of the canvas the garment may fill, the rest a margin on each side.
+const FILL = 0.9;
 
 // Turbo-like colour map for energy (0..1 -> rgb), the same stops as the CSS colour bar.
 const STOPS = [[0x30, 0x12, 0x3b], [0x46, 0x86, 0xfb], [0x1a, 0xe4, 0xb6], [0xa2, 0xfc, 0x3c], [0xfa, 0xba, 0x39], [0xe4, 0x46, 0x0a], [0x7a, 0x04, 0x03]];
@@ -21,6 +37,8 @@ export class GarmentView {
     this.camera = new THREE.PerspectiveCamera(35, 1, 0.01, 100);
     this.controls = new OrbitControls(this.camera, canvas);
     this.controls.addEventListener('change', () => this.render());
+    this.view = 'reset';  // the view the next fit takes (null: the direction the camera has)
+    this.fitDistance = 0;  // the camera's distance at the last fit (the user's zoom is relative to it)
     this.scene.add(new THREE.HemisphereLight(0xffffff, 0x667788, 2.2));
     const sun = new THREE.DirectionalLight(0xffffff, 1.2);
     sun.position.set(1, 2, 1.5);
@@ -38,6 +56,7 @@ export class GarmentView {
     this.renderer.setSize(w, h, false);
     this.camera.aspect = w / h;
     this.camera.updateProjectionMatrix();
+    if (this.garment && this.x) this.fit();
     this.render();
   }
 
@@ -45,7 +64,9 @@ export class GarmentView {
 
   clear() {
     for (const m of [this.garment, this.body]) if (m) { this.scene.remove(m); m.geometry.dispose(); }
-    this.garment = this.body = this.faces = null;
+    this.garment = this.body = this.faces = this.x = null;
+    this.view = 'reset';
+    this.fitDistance = 0;
     this.render();
   }
 
@@ -69,7 +90,6 @@ export class GarmentView {
       this.body = new THREE.Mesh(b, new THREE.MeshStandardMaterial({ color: 0xd9b38c, transparent: true, opacity: 0.3, depthWrite: false, roughness: 0.9 }));
       this.scene.add(this.body);
     }
-    this.framed = false;
   }
 
   // The body's vertices in another pose (same faces); null: the pose it was set with.
@@ -128,25 +148,77 @@ export class GarmentView {
     col.needsUpdate = true;
     this.garment.geometry.computeVertexNormals();
     this.garment.geometry.computeBoundingSphere();
-    if (!this.framed) this.frame();
+    this.x = x;
+    this.fit();
     this.render();
   }
 
-  frame() {
-    const s = this.garment.geometry.boundingSphere;
-    if (!s || !isFinite(s.radius) || s.radius === 0) return;
-    this.controls.target.copy(s.center);
-    const d = s.radius / Math.sin((this.camera.fov * Math.PI) / 360) * 1.1;
-    // Look across the garment's thinnest extent (a sleeve from the side, a shirt from the front).
-    this.garment.geometry.computeBoundingBox();
-    const size = this.garment.geometry.boundingBox.getSize(new THREE.Vector3());
-    const axis = size.x <= size.y && size.x <= size.z ? new THREE.Vector3(1, 0, 0) : size.y <= size.z ? new THREE.Vector3(0, 1, 0) : new THREE.Vector3(0, 0, 1);
-    const dir = axis.clone().add(new THREE.Vector3(0.2, 0.3, 0.25)).normalize();
-    this.camera.position.copy(s.center).add(dir.multiplyScalar(d));
-    this.camera.near = d / 100;
-    this.camera.far = d * 100;
-    this.camera.updateProjectionMatrix();
+  // Looks from `name` (reset, front, back or side) at the garment shown, at no zoom.
+  setView(name) {
+    if (!VIEWS[name]) return;
+    this.view = name;
+    this.fitDistance = 0;
+    if (this.garment && this.x) this.fit();
+    this.render();
+  }
+
+  // +1 when the garment is on the body's left (+x of the body's centre), -1 on its right.
+  garmentSide() {
+    const x = this.x;
+    let sum = 0;
+    for (let i = 0; i < x.length; i += 3) sum += x[i];
+    let centre = 0;
+    if (this.body) {
+      this.body.geometry.computeBoundingBox();
+      centre = this.body.geometry.boundingBox.getCenter(new THREE.Vector3()).x;
+    }
+    return sum / (x.length / 3) >= centre ? 1 : -1;
+  }
+
+  // Moves the camera so that every vertex of the garment shown is inside the view with a margin: the
+  // direction from the view chosen last (or where the user orbited to), the distance the nearest that
+  // holds the garment times the user's zoom since the last fit.
+  fit() {
+    const x = this.x, n = x.length / 3;
+    if (!n) return;
+    const lo = new THREE.Vector3(Infinity, Infinity, Infinity), hi = new THREE.Vector3(-Infinity, -Infinity, -Infinity), p = new THREE.Vector3();
+    for (let i = 0; i < n; ++i) { p.fromArray(x, 3 * i); lo.min(p); hi.max(p); }
+    if (![lo.x, lo.y, lo.z, hi.x, hi.y, hi.z].every(Number.isFinite)) return;
+    const centre = lo.clone().add(hi).multiplyScalar(0.5);
+    const cam = this.camera, target = this.controls.target;
+    // Forward: from the camera to what it looks at.
+    const forward = this.view ? VIEWS[this.view](this.garmentSide()).normalize().negate() : target.clone().sub(cam.position).normalize();
+    if (!(forward.lengthSq() > 0.5)) forward.copy(FRONT).negate();
+    const zoom = this.fitDistance > 0 ? cam.position.distanceTo(target) / this.fitDistance : 1;
+    const right = new THREE.Vector3().crossVectors(forward, UP);
+    if (right.lengthSq() < 1e-8) right.copy(LEFT);
+    right.normalize();
+    const up = new THREE.Vector3().crossVectors(right, forward).normalize();
+    const tanV = Math.tan((cam.fov * Math.PI) / 360) * FILL, tanH = tanV * cam.aspect;
+    // A vertex at q from the centre is inside when |q.right| <= (d + q.forward) tanH, and so for up.
+    // Every vertex stays well in front of the camera (near = d / 100).
+    let d = 0, nearest = 0;
+    for (let i = 0; i < n; ++i) {
+      p.fromArray(x, 3 * i).sub(centre);
+      const z = p.dot(forward);
+      nearest = Math.min(nearest, z);
+      d = Math.max(d, Math.abs(p.dot(right)) / tanH - z, Math.abs(p.dot(up)) / tanV - z);
+    }
+    d = Math.max(d, -1.1 * nearest, 1e-3);
+    target.copy(centre);
+    cam.up.copy(UP);
+    cam.position.copy(centre).addScaledVector(forward, -d * zoom);
+    cam.near = d / 100;
+    cam.far = d * 100;
+    cam.updateProjectionMatrix();
     this.controls.update();
-    this.framed = true;
+    this.fitDistance = d;
+    this.view = null;
+  }
+
+  // The canvas as a PNG data URL (drawn again first, so it is what the camera sees now).
+  imagePng() {
+    this.render();
+    return this.renderer.domElement.toDataURL('image/png');
   }
 }

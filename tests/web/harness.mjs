@@ -4,7 +4,7 @@
 // playwright-core is absent. A test is one call:
 //   import { runBrowserTest } from './harness.mjs';
 //   await runBrowserTest('viewer', async ({ page, base, check, until, artifacts }) => { ... });
-// run as `node tests/web/<name>_test.mjs --kgd build/client/kgd --artifacts build/test-artifacts/web/<name>`.
+// run as `node tests/web/<name>_test.mjs --kgd build/client/kgd --artifacts build/test-artifacts/web/<name> [--web DIR]`.
 import { spawn } from 'node:child_process';
 import fs from 'node:fs';
 import net from 'node:net';
@@ -72,6 +72,8 @@ export function freePort() {
 // page. { child, base, grpc, data, stop() }. A failure to start is an exception, not a stray server.
 export async function startServer({ kgd = arg('--kgd', path.join(repo, 'build/client/kgd')), data, args = [] } = {}) {
   data ??= fs.mkdtempSync(path.join(os.tmpdir(), 'kgd_web_test_'));
+  // --web DIR: the page's files from DIR (kgd serve's default: the source tree's client/web).
+  if (arg('--web')) args = ['--web', arg('--web'), ...args];
   fs.mkdirSync(data, { recursive: true });
   const [grpcPort, httpPort] = [await freePort(), await freePort()];
   const child = spawn(kgd, ['serve', '--data', data, '--listen', `127.0.0.1:${grpcPort}`, '--http', `127.0.0.1:${httpPort}`, ...args, '--quiet'],
@@ -115,11 +117,12 @@ export async function openPage(browser, base, { width = 1280, height = 800 } = {
   return { context, page, pageErrors };
 }
 
-// Submits a built-in scene's job through the page's form (fields left empty keep the scene's values)
-// and returns its id once the page has selected it.
-export async function submitJob(page, { scene, budget = '', maxIterations = '', label = '' }) {
+// Submits a built-in scene's job through the page's form (fields left empty keep the scene's values;
+// quality: draft, standard or precise) and returns its id once the page has selected it.
+export async function submitJob(page, { scene, budget = '', maxIterations = '', label = '', quality = 'standard' }) {
   const before = await page.evaluate(() => window.kgd.state.selected);
   await page.selectOption('#scene', scene);
+  await page.selectOption('#quality', quality);
   await page.fill('#budget', String(budget));
   await page.fill('#max-iterations', String(maxIterations));
   await page.fill('#label', label);
