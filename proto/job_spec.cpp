@@ -53,6 +53,11 @@ std::vector<std::pair<std::string, std::string>> FilesNamed(const v1::Scene& s) 
     if (m.has_deformed()) add("motions.deformed", m.deformed());
     for (const std::string& f : m.frames()) add("motions.frames", f);
   }
+  for (const v1::SceneRangeBody& b : s.bodies()) {
+    if (b.has_rest()) add("bodies.rest", b.rest());
+    if (b.has_deformed()) add("bodies.deformed", b.deformed());
+    for (const std::string& f : b.frames()) add("bodies.frames", f);
+  }
   add_value("attachments.faces", s.attachments().faces());
   add_value("attachments.body_faces", s.attachments().body_faces());
   for (const v1::SceneClamp& c : s.clamps()) add_value("clamps.vertices", c.vertices());

@@ -15,6 +15,7 @@
 #include "proto/records.h"
 #include "core/scene/scene_file.h"
 #include "core/scene/builtin_scenes.h"
+#include "core/scene/bodies_test_scene.h"
 #include "core/scene/motion_test_scene.h"
 #include "core/scene/scene_keys.h"
 #include <google/protobuf/struct.pb.h>
@@ -66,6 +67,20 @@ TEST(JobSpec, RejectsBadSpecsNamingTheField) {
   EXPECT_NE(message(s).find("spec.scene_files.scene.motions.frames: 'reach_1.obj' is not among the files sent"), std::string::npos)
       << message(s);
   (*s.mutable_scene_files()->mutable_files())["reach_1.obj"] = "x";
+  EXPECT_TRUE(ValidateJobSpec(s).ok()) << message(s);
+  v1::SceneRangeBody* small = s.mutable_scene_files()->mutable_scene()->add_bodies();
+  small->set_rest("s/rest.obj");
+  EXPECT_NE(message(s).find("spec.scene_files.scene.bodies.rest: 's/rest.obj' is not among the files sent"), std::string::npos)
+      << message(s);
+  (*s.mutable_scene_files()->mutable_files())["s/rest.obj"] = "v 0 0 0\n";
+  small->set_deformed("s/deformed.obj");
+  EXPECT_NE(message(s).find("spec.scene_files.scene.bodies.deformed: 's/deformed.obj' is not among the files sent"), std::string::npos)
+      << message(s);
+  (*s.mutable_scene_files()->mutable_files())["s/deformed.obj"] = "v 0 0 0\n";
+  small->add_frames("s/f1.obj");
+  EXPECT_NE(message(s).find("spec.scene_files.scene.bodies.frames: 's/f1.obj' is not among the files sent"), std::string::npos)
+      << message(s);
+  (*s.mutable_scene_files()->mutable_files())["s/f1.obj"] = "v 0 0 0\n";
   EXPECT_TRUE(ValidateJobSpec(s).ok()) << message(s);
   (*s.mutable_scene_files()->mutable_files())["../etc/passwd"] = "x";
   EXPECT_NE(message(s).find("leaves the scene's folder"), std::string::npos);
@@ -185,6 +200,14 @@ TEST(SceneSchema, SceneFilesAreTheJsonFormOfTheSceneMessage) {
       EXPECT_TRUE(a.motions[m].pose.deformed == b.motions[m].pose.deformed) << a.motions[m].name;
       EXPECT_EQ(a.motions[m].pose.frames.size(), b.motions[m].pose.frames.size()) << a.motions[m].name;
     }
+    EXPECT_EQ(a.body_objective, b.body_objective);
+    ASSERT_EQ(a.bodies.size(), b.bodies.size());
+    for (size_t k = 0; k < a.bodies.size(); ++k) {
+      EXPECT_EQ(a.bodies[k].name, b.bodies[k].name);
+      EXPECT_EQ(a.bodies[k].weight, b.bodies[k].weight);
+      EXPECT_TRUE(a.bodies[k].pose.rest == b.bodies[k].pose.rest) << a.bodies[k].name;
+      EXPECT_TRUE(a.bodies[k].pose.deformed == b.bodies[k].pose.deformed) << a.bodies[k].name;
+    }
   };
   auto round_trip = [&](const std::string& scene_path) {
     SCOPED_TRACE(scene_path);
@@ -199,15 +222,27 @@ TEST(SceneSchema, SceneFilesAreTheJsonFormOfTheSceneMessage) {
     ASSERT_TRUE(via_message.ok()) << via_message.message();
     same(*direct, *via_message);
   };
-  // three_motion_sleeve: motions with roles, each with its poses, travel to the worker.
-  for (const char* name : {"pull_test_x", "sleeve_on_limb", "knee_flexion", "three_motion_sleeve"}) {
+  // three_motion_sleeve: motions with roles, each with its poses, travel to the worker; sleeve_for_bodies:
+  // bodies with their poses and the objective.
+  for (const char* name : {"pull_test_x", "sleeve_on_limb", "knee_flexion", "three_motion_sleeve", "sleeve_for_bodies"}) {
     std::filesystem::remove_all(tmp);
-    Result<SceneSpec> scene = std::string(name) == "three_motion_sleeve" ? ThreeMotionSleeve() : BuiltinScene(name);
+    Result<SceneSpec> scene = std::string(name) == "three_motion_sleeve" ? ThreeMotionSleeve()
+                              : std::string(name) == "sleeve_for_bodies"
+                                  ? SleeveForBodies({{"M", 0.04, 1.0}, {"S", 0.036, 1.0}, {"L", 0.044, 0.5}}, BodyObjective::kWorst)
+                                  : BuiltinScene(name);
     ASSERT_TRUE(scene.ok()) << scene.message();
     if (scene->motion) scene->motion->frames.resize(std::min<size_t>(scene->motion->frames.size(), 2));
     for (SceneMotion& m : scene->motions) m.pose.frames.resize(std::min<size_t>(m.pose.frames.size(), 2));
     ASSERT_TRUE(ExportScene(*scene, tmp.string()).ok());
     round_trip((tmp / "scene.json").string());
+    if (!scene->bodies.empty()) {
+      Result<v1::SceneFiles> files = ReadSceneFiles((tmp / "scene.json").string());
+      ASSERT_TRUE(files.ok()) << files.message();
+      ASSERT_EQ(files->scene().bodies_size(), 3);
+      EXPECT_EQ(files->scene().body_objective(), "worst");
+      EXPECT_EQ(files->scene().bodies(2).weight(), 0.5);
+      EXPECT_TRUE(files->files().count(files->scene().bodies(1).rest())) << "the bodies' meshes travel with the scene";
+    }
     if (!scene->motions.empty()) {
       Result<v1::SceneFiles> files = ReadSceneFiles((tmp / "scene.json").string());
       ASSERT_TRUE(files.ok()) << files.message();
@@ -248,6 +283,8 @@ TEST(SceneSchema, TheSchemaAndTheLoaderKnowTheSameKeys) {
     "body": {"rest": "r.obj", "deformed": "d.obj", "frames": ["f1.obj", "f2.obj"]},
     "motions": [{"name": "flex", "role": "resist", "weight": 1}, {"name": "reach", "role": "allow", "weight": 0,
                  "deformed": "m1/d.obj", "frames": ["m1/f1.obj"]}],
+    "bodies": [{"name": "M", "weight": 1}, {"name": "S", "weight": 0.5, "rest": "b1/r.obj", "deformed": "b1/d.obj",
+                "frames": ["b1/f1.obj"]}], "body_objective": "worst",
     "attachments": {"body_faces": "ab.txt"}})";
   for (const char* text : {own, cut}) {
     Result<v1::Scene> scene = ParseSceneJson(text, "scene.json");

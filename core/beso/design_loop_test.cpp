@@ -1,6 +1,7 @@
 // The BESO loop on the pull test: every design meets its target area, every simulation converges,
 // the reinforced energy density rises as material goes, and the run is deterministic.
 #include "core/beso/design_loop.h"
+#include "core/scene/bodies_test_scene.h"
 #include "core/scene/builtin_scenes.h"
 #include "core/scene/simulate.h"
 #include "core/scene/shapes.h"
@@ -378,38 +379,11 @@ TEST(DesignLoopMotions, BadMotionsAreRefusedByName) {
   refused(own_mesh, "not cut from a body");
 }
 
-// A limb of radius `radius_m` whose joint flexes by 0.8 rad, meshed with rings every 1.5 cm whatever
-// its radius, so limbs of other radii (same `around`) share its topology.
-BodyMotion FlexingLimb(double radius_m, int around = 16, std::vector<double>* axial = nullptr) {
-  LimbShape shape;
-  shape.radius_m = radius_m;
-  shape.around = around;
-  shape.spacing_m = 0.015;
-  const TriMesh rest = LimbRest(shape, axial);
-  return BodyMotion{rest.faces, rest.vertices, LimbPosed(shape, rest.vertices, 0.8), {}};
-}
-
-// The flexing sleeve on a range of limbs (name, radius, weight): the first is the scene's own.
-SceneSpec SleeveForBodies(const std::vector<std::tuple<std::string, double, double>>& bodies, BodyObjective objective) {
-  std::vector<double> axial;
-  SceneSpec s;
-  s.name = "sleeve_for_bodies";
-  s.motion = FlexingLimb(std::get<1>(bodies.front()), 16, &axial);
-  const Faces& faces = s.motion->faces;
-  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
-    double lo = 1e300, hi = -1e300;
-    for (int k = 0; k < 3; ++k) lo = std::min(lo, axial[faces(f, k)]), hi = std::max(hi, axial[faces(f, k)]);
-    if (lo < -0.09 || hi > 0.09) continue;
-    s.garment_region.push_back(static_cast<int>(f));
-    if (lo < -0.07 || hi > 0.07) s.attachment_body_faces.push_back(static_cast<int>(f));
-  }
-  s.effects.contact = ContactModel::kUnilateral;
-  s.effects.attachments = true;
-  const Status st = CutGarmentFromMotion(&s);
-  EXPECT_TRUE(st.ok()) << st.message();
-  for (const auto& [name, radius, weight] : bodies) s.bodies.push_back({name, weight, FlexingLimb(radius)});
-  s.body_objective = objective;
-  return s;
+// The flexing sleeve on a range of limbs (bodies_test_scene.h), built.
+SceneSpec Sleeve(const std::vector<std::tuple<std::string, double, double>>& bodies, BodyObjective objective) {
+  Result<SceneSpec> s = SleeveForBodies(bodies, objective);
+  EXPECT_TRUE(s.ok()) << s.message();
+  return s.ok() ? *s : SceneSpec{};
 }
 
 // A design for a range of bodies simulates every body on its own garment rest shape each iteration and
@@ -417,7 +391,7 @@ SceneSpec SleeveForBodies(const std::vector<std::tuple<std::string, double, doub
 // gives), a thicker limb stretches its sleeve more, and bodies of weight 0 change no design (the run is
 // the scene's own body's alone, bit for bit).
 TEST(DesignLoopBodies, EveryBodyIsSimulatedOnItsOwnGarmentAndReportedByName) {
-  const SceneSpec sizes = SleeveForBodies({{"M", 0.04, 1.0}, {"S", 0.036, 1.0}, {"L", 0.044, 1.0}}, BodyObjective::kMean);
+  const SceneSpec sizes = Sleeve({{"M", 0.04, 1.0}, {"S", 0.036, 1.0}, {"L", 0.044, 1.0}}, BodyObjective::kMean);
   const Result<std::vector<BesoIteration>> run = RunBeso(sizes, Quick(5));
   ASSERT_TRUE(run.ok()) << run.message();
   const Result<std::vector<BodyEvaluation>> full = EvaluateOnBodies(sizes, std::vector<uint8_t>(sizes.garment.faces.rows(), kReinforced));
@@ -444,7 +418,7 @@ TEST(DesignLoopBodies, EveryBodyIsSimulatedOnItsOwnGarmentAndReportedByName) {
 
   SceneSpec own = sizes;
   own.bodies.clear();
-  const SceneSpec reported = SleeveForBodies({{"M", 0.04, 1.0}, {"S", 0.036, 0.0}, {"L", 0.044, 0.0}}, BodyObjective::kWorst);
+  const SceneSpec reported = Sleeve({{"M", 0.04, 1.0}, {"S", 0.036, 0.0}, {"L", 0.044, 0.0}}, BodyObjective::kWorst);
   const Result<std::vector<BesoIteration>> a = RunBeso(own, Quick(5)), b = RunBeso(reported, Quick(5));
   ASSERT_TRUE(a.ok()) << a.message();
   ASSERT_TRUE(b.ok()) << b.message();
@@ -455,7 +429,7 @@ TEST(DesignLoopBodies, EveryBodyIsSimulatedOnItsOwnGarmentAndReportedByName) {
 
 // Bad bodies are refused before any simulation, the message naming the body.
 TEST(DesignLoopBodies, BadBodiesAreRefusedByName) {
-  const SceneSpec good = SleeveForBodies({{"M", 0.04, 1.0}, {"L", 0.044, 1.0}}, BodyObjective::kMean);
+  const SceneSpec good = Sleeve({{"M", 0.04, 1.0}, {"L", 0.044, 1.0}}, BodyObjective::kMean);
   auto refused = [&](SceneSpec scene, const std::string& words) {
     const Result<std::vector<BesoIteration>> run = RunBeso(scene, Quick(2));
     ASSERT_FALSE(run.ok());

@@ -255,10 +255,12 @@ Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector
                                       const std::optional<std::string>& cache_dir) {
   Result<std::optional<BodyMeasurements>> body = ParseBodyMeasurements(body_items);
   if (!body.ok()) return body.status();
-  // The paper's scenes are built on the parametric body (seconds); on a warm machine they come from the
-  // scene cache (a fraction of a second). The quick simulator checks are built every time.
+  // The paper's scenes and the sized ones are built on the parametric body (seconds; the other sizes'
+  // bodies longer); on a warm machine they come from the scene cache (a fraction of a second). The
+  // quick simulator checks are built every time.
   bool parametric = false;
   for (const PaperMotion& m : PaperMotions()) parametric = parametric || m.name == name;
+  for (const SizedScene& z : SizedScenes()) parametric = parametric || z.name == name;
   const BodyMeasurements measurements = *body ? **body : BodyMeasurements();
   const std::string cache = cache_dir ? *cache_dir : SceneCacheDir();
   if (parametric)

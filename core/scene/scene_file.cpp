@@ -233,11 +233,60 @@ Status ReadMotionEntries(const Reader& r, const json& doc, std::vector<MotionEnt
   return Status::Ok();
 }
 
+// One entry of `bodies` as the file gives it; its poses are read with the body's.
+struct BodyEntry {
+  SceneBody body;   // name, weight
+  std::string key;  // "bodies[1]"
+  const json* rest = nullptr;
+  const json* deformed = nullptr;
+  std::vector<const json*> frames;
+};
+
+// `bodies`: each a unique name and a weight >= 0; the first is the scene's own (a weight > 0, its poses
+// body.rest, body.deformed and body.frames), every other gives its rest and deformed poses (and frames).
+Status ReadBodyEntries(const Reader& r, const json& doc, std::vector<BodyEntry>* out) {
+  if (!doc.contains(sk::Scene::bodies)) return Status::Ok();
+  const json& bs = doc[sk::Scene::bodies];
+  if (!bs.is_array() || bs.empty()) return r.Fail("bodies", "must be a non-empty array of bodies");
+  for (size_t i = 0; i < bs.size(); ++i) {
+    const json& b = bs[i];
+    BodyEntry e;
+    e.key = "bodies[" + std::to_string(i) + "]";
+    KGD_RETURN_IF_ERROR(r.CheckKeys(b, e.key, "SceneRangeBody"));
+    if (!b.contains(sk::SceneRangeBody::name) || !b[sk::SceneRangeBody::name].is_string() || b[sk::SceneRangeBody::name].get<std::string>().empty())
+      return r.Fail(e.key + ".name", "missing (every body needs a name, a non-empty string)");
+    e.body.name = b[sk::SceneRangeBody::name].get<std::string>();
+    const std::string what = "body '" + e.body.name + "'";
+    for (size_t j = 0; j < out->size(); ++j)
+      if ((*out)[j].body.name == e.body.name) return r.Fail(e.key + ".name", what + ": two bodies have this name (" + (*out)[j].key + ")");
+    KGD_RETURN_IF_ERROR(r.Number(b, e.key, sk::SceneRangeBody::weight, &e.body.weight));
+    if (!(e.body.weight >= 0)) return r.Fail(e.key + ".weight", what + ": weight " + b[sk::SceneRangeBody::weight].dump() + " must be >= 0");
+    if (i == 0) {
+      for (const char* k : {sk::SceneRangeBody::rest, sk::SceneRangeBody::deformed, sk::SceneRangeBody::frames})
+        if (b.contains(k))
+          return r.Fail(e.key + "." + k, what + ": the first body is the scene's own: its poses are body.rest, body.deformed and body.frames");
+      if (!(e.body.weight > 0)) return r.Fail(e.key + ".weight", what + ": the first body is the scene's own and must have a weight > 0");
+    } else {
+      for (const char* k : {sk::SceneRangeBody::rest, sk::SceneRangeBody::deformed})
+        if (!b.contains(k)) return r.Fail(e.key + "." + k, what + ": missing (every body but the first gives its rest and deformed poses)");
+      e.rest = &b[sk::SceneRangeBody::rest];
+      e.deformed = &b[sk::SceneRangeBody::deformed];
+      if (b.contains(sk::SceneRangeBody::frames)) {
+        const json& fr = b[sk::SceneRangeBody::frames];
+        if (!fr.is_array() || fr.empty()) return r.Fail(e.key + ".frames", what + ": must be a non-empty array of mesh file paths");
+        for (const json& f : fr) e.frames.push_back(&f);
+      }
+    }
+    out->push_back(std::move(e));
+  }
+  return Status::Ok();
+}
+
 // A garment cut from the body's motion: body.rest, body.deformed and body.frames (one topology), the
-// region (body faces), subdivisions and the attachment body faces; and the poses of the other
-// `motions` (the same topology).
+// region (body faces), subdivisions and the attachment body faces; the poses of the other `motions`
+// and of the other `bodies` (the same topology).
 Status ReadGarmentCutFromBody(const Reader& r, const json& g, const json& b, const json& a, const std::vector<MotionEntry>& motions,
-                              SceneSpec* s) {
+                              const std::vector<BodyEntry>& bodies, SceneSpec* s) {
   for (const char* k : {sk::SceneGarment::rest, sk::SceneGarment::initial})
     if (g.contains(k))
       return r.Fail(std::string("garment.") + k, "not allowed with garment.region (a garment cut from the body takes its shapes from body.rest and body.deformed)");
@@ -254,53 +303,65 @@ Status ReadGarmentCutFromBody(const Reader& r, const json& g, const json& b, con
   std::vector<std::string> names = {rest_file};
   // Every other pose: same vertex count and the very same faces as the rest mesh. A motion is a dozen
   // meshes of tens of MB of text: they are read in parallel, then checked in order.
-  // Each pose with its key and its motion (0: the body's own, m: motions[m]).
+  // Each pose with its key, whose it is ("": the body's own; "motion 'reach'", "body 'S'"), where it
+  // goes and what it is.
+  enum class Kind { kRest, kDeformed, kFrame };
+  std::vector<BodyMotion> other(motions.size());       // other[m]: the poses of motions[m], m >= 1
+  std::vector<BodyMotion> other_body(bodies.size());   // other_body[k]: the poses of bodies[k], k >= 1
   struct Pose {
     std::string key;
     const json* value;
-    size_t motion;
-    bool deformed;  // else a frame
+    std::string whose;
+    BodyMotion* into;
+    Kind kind;
   };
-  std::vector<Pose> poses = {{"body.deformed", &b[sk::SceneBody::deformed], 0, true}};
+  std::vector<Pose> poses = {{"body.deformed", &b[sk::SceneBody::deformed], "", &motion, Kind::kDeformed}};
   if (b.contains(sk::SceneBody::frames)) {
     const json& fr = b[sk::SceneBody::frames];
     if (!fr.is_array() || fr.empty()) return r.Fail("body.frames", "must be a non-empty array of mesh file paths");
-    for (size_t i = 0; i < fr.size(); ++i) poses.push_back({"body.frames[" + std::to_string(i) + "]", &fr[i], 0, false});
+    for (size_t i = 0; i < fr.size(); ++i) poses.push_back({"body.frames[" + std::to_string(i) + "]", &fr[i], "", &motion, Kind::kFrame});
   }
   for (size_t m = 1; m < motions.size(); ++m) {
-    poses.push_back({motions[m].key + ".deformed", motions[m].deformed, m, true});
+    const std::string whose = "motion '" + motions[m].motion.name + "'";
+    poses.push_back({motions[m].key + ".deformed", motions[m].deformed, whose, &other[m], Kind::kDeformed});
     for (size_t i = 0; i < motions[m].frames.size(); ++i)
-      poses.push_back({motions[m].key + ".frames[" + std::to_string(i) + "]", motions[m].frames[i], m, false});
+      poses.push_back({motions[m].key + ".frames[" + std::to_string(i) + "]", motions[m].frames[i], whose, &other[m], Kind::kFrame});
+  }
+  for (size_t k = 1; k < bodies.size(); ++k) {
+    const std::string whose = "body '" + bodies[k].body.name + "'";
+    poses.push_back({bodies[k].key + ".rest", bodies[k].rest, whose, &other_body[k], Kind::kRest});
+    poses.push_back({bodies[k].key + ".deformed", bodies[k].deformed, whose, &other_body[k], Kind::kDeformed});
+    for (size_t i = 0; i < bodies[k].frames.size(); ++i)
+      poses.push_back({bodies[k].key + ".frames[" + std::to_string(i) + "]", bodies[k].frames[i], whose, &other_body[k], Kind::kFrame});
   }
   for (const Pose& p : poses) {
     if (!p.value->is_string()) return r.Fail(p.key, "must be a mesh file path");
     names.push_back(r.Resolve(p.value->get<std::string>()));
   }
-  std::vector<BodyMotion> other(motions.size());  // other[m]: the poses of motions[m], m >= 1
   const int n = static_cast<int>(poses.size());
   std::vector<Result<TriMesh>> read(n, Status::Error(""));
 #pragma omp parallel for schedule(dynamic)
   for (int i = 0; i < n; ++i) read[i] = r.MeshFile(names[i + 1]);
   for (int i = 0; i < n; ++i) {
-    const size_t m = poses[i].motion;
-    // A motion's pose is named with its key and motion besides its file.
-    const std::string context = m == 0 ? "" : r.file() + ": " + poses[i].key + " (motion '" + motions[m].motion.name + "'): ";
+    const Pose& p = poses[i];
+    // Another motion's or body's pose is named with its key and owner besides its file.
+    const std::string context = p.whose.empty() ? "" : r.file() + ": " + p.key + " (" + p.whose + "): ";
+    const char* one = p.whose.rfind("body", 0) == 0 ? " (every body must have the topology of body.rest, so that the garment is the same on each)"
+                                                    : " (all poses must share one topology)";
     if (!read[i].ok()) return read[i].status().WithContext(context);
     const TriMesh& pose = *read[i];
     const std::string& file = names[i + 1];
     if (pose.vertices.rows() != motion.rest.rows())
       return Status::Error(context + file + ": has " + std::to_string(pose.vertices.rows()) + " vertices but " + rest_file + " has " +
-                           std::to_string(motion.rest.rows()) + " (all poses must share one topology)");
+                           std::to_string(motion.rest.rows()) + one);
     if (pose.faces.rows() != motion.faces.rows())
       return Status::Error(context + file + ": has " + std::to_string(pose.faces.rows()) + " faces but " + rest_file + " has " +
-                           std::to_string(motion.faces.rows()) + " (all poses must share one topology)");
+                           std::to_string(motion.faces.rows()) + one);
     for (Eigen::Index f = 0; f < motion.faces.rows(); ++f)
       if (pose.faces.row(f) != motion.faces.row(f))
-        return Status::Error(context + file + ": face " + std::to_string(f) + " differs from face " + std::to_string(f) + " of " + rest_file +
-                             " (all poses must share one topology)");
-    if (m > 0) KGD_RETURN_IF_ERROR(ValidateMesh(pose.vertices, pose.faces, file).WithContext(context));
-    BodyMotion& owner = m == 0 ? motion : other[m];
-    Positions& out = poses[i].deformed ? owner.deformed : owner.frames.emplace_back();
+        return Status::Error(context + file + ": face " + std::to_string(f) + " differs from face " + std::to_string(f) + " of " + rest_file + one);
+    if (!p.whose.empty()) KGD_RETURN_IF_ERROR(ValidateMesh(pose.vertices, pose.faces, file).WithContext(context));
+    Positions& out = p.kind == Kind::kRest ? p.into->rest : p.kind == Kind::kDeformed ? p.into->deformed : p.into->frames.emplace_back();
     out = std::move(read[i]->vertices);
   }
   KGD_RETURN_IF_ERROR(ValidateBodyMotion(motion, names));
@@ -315,6 +376,16 @@ Status ReadGarmentCutFromBody(const Reader& r, const json& g, const json& b, con
       sm.pose.rest = s->motion->rest;
     }
     s->motions.push_back(std::move(sm));
+  }
+  for (size_t k = 0; k < bodies.size(); ++k) {
+    SceneBody body = bodies[k].body;
+    if (k == 0) {
+      body.pose = *s->motion;
+    } else {
+      body.pose = std::move(other_body[k]);
+      body.pose.faces = s->motion->faces;
+    }
+    s->bodies.push_back(std::move(body));
   }
   Result<std::vector<int>> region = r.Indices(g[sk::SceneGarment::region], "garment.region");
   if (!region.ok()) return region.status();
@@ -333,7 +404,8 @@ Status ReadGarmentCutFromBody(const Reader& r, const json& g, const json& b, con
   }
   const std::string region_name = g[sk::SceneGarment::region].is_string() ? r.Resolve(g[sk::SceneGarment::region].get<std::string>()) : r.file() + ": garment.region";
   KGD_RETURN_IF_ERROR(CutGarmentFromMotion(s, region_name, attach_name));
-  return ValidateSceneMotions(*s).WithContext(r.file() + ": motions: ");
+  KGD_RETURN_IF_ERROR(ValidateSceneMotions(*s).WithContext(r.file() + ": motions: "));
+  return ValidateSceneBodies(*s).WithContext(r.file() + ": bodies: ");
 }
 
 // A garment mesh of its own, with optional start positions of the same topology.
@@ -639,7 +711,21 @@ Result<SceneSpec> LoadSceneText(const std::string& text, const std::string& path
   KGD_RETURN_IF_ERROR(ReadMotionEntries(r, doc, &motions));
   if (!motions.empty() && !g.contains(sk::SceneGarment::region))
     return r.Fail("motions", "only allowed with garment.region (the motions share the body's rest pose and the garment cut in it)");
-  KGD_RETURN_IF_ERROR(g.contains(sk::SceneGarment::region) ? ReadGarmentCutFromBody(r, g, b, a, motions, &s) : ReadGarmentOfItsOwn(r, g, b, a, &s));
+  std::vector<BodyEntry> bodies;
+  KGD_RETURN_IF_ERROR(ReadBodyEntries(r, doc, &bodies));
+  if (!bodies.empty() && !g.contains(sk::SceneGarment::region))
+    return r.Fail("bodies", "only allowed with garment.region (the garment is cut from every body by the same region)");
+  if (!bodies.empty() && !motions.empty())
+    return r.Fail("bodies", "not allowed with motions (a design weighs several motions of one body or one motion of several bodies)");
+  if (doc.contains(sk::Scene::body_objective)) {
+    if (bodies.empty()) return r.Fail("body_objective", "only allowed with bodies");
+    const json& o = doc[sk::Scene::body_objective];
+    Result<BodyObjective> objective = BodyObjectiveFromName(o.is_string() ? o.get<std::string>() : o.dump(), "the bodies' objective");
+    if (!objective.ok()) return r.Fail("body_objective", objective.message());
+    s.body_objective = *objective;
+  }
+  KGD_RETURN_IF_ERROR(g.contains(sk::SceneGarment::region) ? ReadGarmentCutFromBody(r, g, b, a, motions, bodies, &s)
+                                                           : ReadGarmentOfItsOwn(r, g, b, a, &s));
   KGD_RETURN_IF_ERROR(ReadDesign(r, g, &s));
   KGD_RETURN_IF_ERROR(ReadSeams(r, g, &s));
   KGD_RETURN_IF_ERROR(ReadDesignConstraints(r, g, &s));
@@ -712,10 +798,8 @@ nlohmann::ordered_json MaterialJson(const Material& m) {
 }  // namespace
 
 Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
-  if (s.bodies.size() > 1)
-    return Status::Error(s.name + ": a scene file holds one body, and this scene weighs " + std::to_string(s.bodies.size()) +
-                         " (its bodies run as the built-in scene: kgd design " + s.name + ")");
   KGD_RETURN_IF_ERROR(ValidateSceneMotions(s).WithContext(s.name + ": "));
+  KGD_RETURN_IF_ERROR(ValidateSceneBodies(s).WithContext(s.name + ": "));
   const fs::path dir(dir_path);
   std::error_code ec;
   fs::create_directories(dir, ec);
@@ -772,6 +856,36 @@ Status ExportScene(const SceneSpec& s, const std::string& dir_path) {
         motions.push_back(entry);
       }
       doc[sk::Scene::motions] = motions;
+    }
+    if (!s.bodies.empty()) {
+      // The first body's poses are body.rest, body.deformed and body.frames; every other's in bodies/K/.
+      nlohmann::ordered_json bodies = nlohmann::ordered_json::array();
+      for (size_t k = 0; k < s.bodies.size(); ++k) {
+        const SceneBody& b = s.bodies[k];
+        nlohmann::ordered_json entry = {{sk::SceneRangeBody::name, b.name}, {sk::SceneRangeBody::weight, b.weight}};
+        if (k > 0) {
+          const std::string folder = "bodies/" + std::to_string(k);
+          fs::create_directories(dir / folder / (b.pose.frames.empty() ? "" : "frames"), ec);
+          if (ec) return Status::Error((dir / folder).string() + ": cannot create directory: " + ec.message());
+          KGD_RETURN_IF_ERROR(WriteObj((dir / folder / "rest.obj").string(), b.pose.rest, s.motion->faces));
+          KGD_RETURN_IF_ERROR(WriteObj((dir / folder / "deformed.obj").string(), b.pose.deformed, s.motion->faces));
+          entry[sk::SceneRangeBody::rest] = folder + "/rest.obj";
+          entry[sk::SceneRangeBody::deformed] = folder + "/deformed.obj";
+          if (!b.pose.frames.empty()) {
+            nlohmann::ordered_json frames = nlohmann::ordered_json::array();
+            for (size_t i = 0; i < b.pose.frames.size(); ++i) {
+              char file[64];
+              std::snprintf(file, sizeof file, "/frames/frame_%02zu.obj", i + 1);
+              KGD_RETURN_IF_ERROR(WriteObj((dir / (folder + file)).string(), b.pose.frames[i], s.motion->faces));
+              frames.push_back(folder + file);
+            }
+            entry[sk::SceneRangeBody::frames] = frames;
+          }
+        }
+        bodies.push_back(entry);
+      }
+      doc[sk::Scene::bodies] = bodies;
+      doc[sk::Scene::body_objective] = ToString(s.body_objective);
     }
   } else {
     KGD_RETURN_IF_ERROR(WriteObj((dir / "garment_rest.obj").string(), s.garment.vertices, s.garment.faces));

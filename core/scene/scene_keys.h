@@ -28,6 +28,8 @@
   X(Scene, clamps, "[SceneClamp, ...]: prescribed vertices")                                          \
   X(Scene, solver, "SceneSolver: the static solve")                                                   \
   X(Scene, max_pressure_kPa, "design jobs keep the skin pressure of every resisted motion's deformed pose at or below this, kPa") \
+  X(Scene, bodies, "[SceneRangeBody, ...]: with garment.region, the bodies a design weighs, each in the scene's motion (the first: the scene's own)") \
+  X(Scene, body_objective, "with bodies: \"mean\" (default) or \"worst\", what a design weighs of the bodies' density ratios") \
   X(SceneGarment, rest, "a garment mesh of its own: OBJ or PLY, relative to the scene file")          \
   X(SceneGarment, initial, "its start positions (the deformed pose); default: the rest mesh")         \
   X(SceneGarment, region, "or: body faces of the rest pose, \"faces.txt\" or [0, 1, ...], 0-based")   \
@@ -60,6 +62,11 @@
   X(SceneMotion, weight, "its weight in the objective, >= 0 (default 1; 0: simulated and reported only)") \
   X(SceneMotion, deformed, "its deformed pose, the topology of body.rest (the first motion's: body.deformed)") \
   X(SceneMotion, frames, "its frames, each the topology of body.rest (the first motion's: body.frames)") \
+  X(SceneRangeBody, name, "the body's name (unique in the scene, e.g. a size)")                       \
+  X(SceneRangeBody, weight, "its weight in the objective, >= 0 (default 1; 0: simulated and reported only)") \
+  X(SceneRangeBody, rest, "its rest pose, the topology of body.rest (the first body's: body.rest)")   \
+  X(SceneRangeBody, deformed, "its deformed pose in the scene's motion (the first body's: body.deformed)") \
+  X(SceneRangeBody, frames, "its frames, each the topology of body.rest (the first body's: body.frames)") \
   X(SceneContact, stiffness_N_per_m, "contact penalty stiffness, N/m")                                \
   X(SceneAttachments, faces, "garment faces, \"faces.txt\" or [0, 1, ...]")                           \
   X(SceneAttachments, body_faces, "with garment.region: body faces inside the region")                \
