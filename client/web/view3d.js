@@ -8,14 +8,35 @@ import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 // The body's axes in kgd's scenes (core/body/parametric_body.h): +y up, +z the body's front, +x its left.
 const UP = new THREE.Vector3(0, 1, 0), FRONT = new THREE.Vector3(0, 0, 1), LEFT = new THREE.Vector3(1, 0, 0);
 // Where the camera looks from, as a direction from the garment; `side` is +1 for a garment on the body's
-// left, -1 on its right. The default sees the front and the garment's side a little from above: a
-// sleeve from its side, never down its cut end.
+// left, -1 on its right; x the garment's vertices. The default (reset) is the one of a few views from
+// the front and the garment's side, a little from above, that sees the garment broadest: a sleeve from
+// its side, not down its cut end (a flexed arm's forearm points to the front).
 const VIEWS = {
-  reset: (side) => FRONT.clone().addScaledVector(LEFT, 0.6 * side).addScaledVector(UP, 0.35),
+  reset: (side, x) => {
+    const candidates = [[0.6, 1], [1, 0.6], [1, 0.15]].map(([s, f]) => FRONT.clone().multiplyScalar(f).addScaledVector(LEFT, s * side).addScaledVector(UP, 0.35));
+    let best = candidates[0], most = -1;
+    for (const d of candidates) { const a = projectedArea(x, d); if (a > most + 1e-12) { most = a; best = d; } }
+    return best;
+  },
   front: () => FRONT.clone(),
   back: () => FRONT.clone().negate(),
   side: (side) => LEFT.clone().multiplyScalar(side),
 };
+// The area (m²) of the rectangle around the vertices x seen along direction d (orthographic, up +y).
+export function projectedArea(x, d) {
+  const f = d.clone().normalize(), r = new THREE.Vector3().crossVectors(f, UP);
+  if (r.lengthSq() < 1e-8) r.copy(LEFT);
+  r.normalize();
+  const u = new THREE.Vector3().crossVectors(r, f).normalize(), p = new THREE.Vector3();
+  let r0 = Infinity, r1 = -Infinity, u0 = Infinity, u1 = -Infinity;
+  for (let i = 0; i < x.length; i += 3) {
+    p.fromArray(x, i);
+    const a = p.dot(r), b = p.dot(u);
+    r0 = Math.min(r0, a); r1 = Math.max(r1, a); u0 = Math.min(u0, b); u1 = Math.max(u1, b);
+  }
+  return (r1 - r0) * (u1 - u0);
+}
+
 // The share of the canvas the garment may fill, the rest a margin on each side.
 const FILL = 0.9;
 
@@ -187,7 +208,7 @@ export class GarmentView {
     const centre = lo.clone().add(hi).multiplyScalar(0.5);
     const cam = this.camera, target = this.controls.target;
     // Forward: from the camera to what it looks at.
-    const forward = this.view ? VIEWS[this.view](this.garmentSide()).normalize().negate() : target.clone().sub(cam.position).normalize();
+    const forward = this.view ? VIEWS[this.view](this.garmentSide(), x).normalize().negate() : target.clone().sub(cam.position).normalize();
     if (!(forward.lengthSq() > 0.5)) forward.copy(FRONT).negate();
     const zoom = this.fitDistance > 0 ? cam.position.distanceTo(target) / this.fitDistance : 1;
     const right = new THREE.Vector3().crossVectors(forward, UP);

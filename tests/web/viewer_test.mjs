@@ -54,7 +54,19 @@ const projection = (page) => page.evaluate(() => {
   const d = cam.position.clone().sub(v.controls.target).normalize();
   let sx = 0;
   for (let i = 0; i < x.length; i += 3) sx += x[i];
-  return { lo, hi, behind, dir: [d.x, d.y, d.z], garmentX: sx / (x.length / 3), colours: Array.from(v.garment.geometry.attributes.color.array) };
+  // The area of the rectangle around the garment seen along a direction (orthographic, up +y).
+  const area = (dir) => {
+    const f = dir.clone().normalize(), r = f.clone().cross(cam.up).normalize(), u = r.clone().cross(f).normalize();
+    const lo2 = [Infinity, Infinity], hi2 = [-Infinity, -Infinity];
+    for (let i = 0; i < x.length; i += 3) {
+      const p = [x[i] * r.x + x[i + 1] * r.y + x[i + 2] * r.z, x[i] * u.x + x[i + 1] * u.y + x[i + 2] * u.z];
+      for (let a = 0; a < 2; ++a) { lo2[a] = Math.min(lo2[a], p[a]); hi2[a] = Math.max(hi2[a], p[a]); }
+    }
+    return (hi2[0] - lo2[0]) * (hi2[1] - lo2[1]);
+  };
+  const s = Math.sign(sx);
+  return { lo, hi, behind, dir: [d.x, d.y, d.z], garmentX: sx / (x.length / 3), colours: Array.from(v.garment.geometry.attributes.color.array),
+    areas: { shown: area(d), front: area(d.clone().set(0, 0.35, 1)), between: area(d.clone().set(0.6 * s, 0.35, 1)), side: area(d.clone().set(s, 0.35, 0.15)) } };
 });
 const inside = (p) => p.behind === 0 && p.lo[0] >= -1 && p.lo[1] >= -1 && p.hi[0] <= 1 && p.hi[1] <= 1;
 const fills = (p) => Math.max(p.hi[0] - p.lo[0], p.hi[1] - p.lo[1]) >= 1.2;  // over 60 % of the canvas's width or height
@@ -143,10 +155,7 @@ await runBrowserTest('viewer', async ({ browser, page, base, check, until, artif
     framing.push(`${k}: ${box(p)}`);
     allInside &&= inside(p);
     allFill &&= fills(p);
-    if (k === 1) {
-      check(p.dir[2] > 0.5 && Math.sign(p.dir[0]) === Math.sign(p.garmentX), `the default view looks at the body's front from the garment's side (direction ${p.dir.map((c) => c.toFixed(2)).join(', ')}; garment at x ${p.garmentX.toFixed(3)} m)`);
-      await page.screenshot({ path: path.join(artifacts, 'frame-1.png') });
-    }
+    if (k === 1) await page.screenshot({ path: path.join(artifacts, 'frame-1.png') });
   }
   check(allInside, `the garment's projected bounds are inside the canvas at every frame (${framing.join('; ')})`);
   check(allFill, 'the garment fills over 60 % of the canvas\'s width or height at every frame');
@@ -170,8 +179,18 @@ await runBrowserTest('viewer', async ({ browser, page, base, check, until, artif
   }
   check(new Set(Object.values(views)).size === 3, 'front, back and side draw three different images');
 
-  // The view as a PNG download, named after what it shows.
+  // Reset view, in the deformed pose: from the front half and the garment's side, seeing the garment as
+  // broad as the broadest of the front, the front and side between and the side, each a little from
+  // above (not down a sleeve's cut end, as the front sees a forearm bent forward).
   await page.click('#camera-controls button[data-view="reset"]');
+  {
+    const p = await projection(page);
+    check(p.dir[2] > 0.1 && Math.sign(p.dir[0]) === Math.sign(p.garmentX) && p.areas.shown >= 0.999 * Math.max(p.areas.front, p.areas.between, p.areas.side) && inside(p),
+      `the default view looks from the body's front half and the garment's side (direction ${p.dir.map((c) => c.toFixed(2)).join(', ')}; garment at x ${p.garmentX.toFixed(3)} m), seeing the garment broadest (${(1e4 * p.areas.shown).toFixed(0)} cm²; from the front ${(1e4 * p.areas.front).toFixed(0)}, between ${(1e4 * p.areas.between).toFixed(0)}, the side ${(1e4 * p.areas.side).toFixed(0)})`);
+    await page.screenshot({ path: path.join(artifacts, 'view-reset.png') });
+  }
+
+  // The view as a PNG download, named after what it shows.
   const [image] = await Promise.all([page.waitForEvent('download'), page.click('#download-image')]);
   const imagePath = path.join(artifacts, image.suggestedFilename());
   await image.saveAs(imagePath);
