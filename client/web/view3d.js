@@ -1,7 +1,8 @@
 // The garment on the body in 3D: three.js, orbit controls, the garment coloured per face by its
 // design or by its energy per area, the body semi-transparent or coloured by skin pressure. The camera
 // frames the garment shown, whatever its pose: from the view chosen (front, back, the garment's side, or
-// the default between front and side), or from where the user orbited to, at the user's zoom.
+// the default: the broadest of a few from the front and side), or from where the user orbited to, at the
+// user's zoom.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
