@@ -136,8 +136,7 @@ Result<ExportReport> ExportDesign(const std::string& path, const std::string& ou
   r.iteration = k;
   r.area_fraction = it.area_fraction;
   r.density_ratio = it.density_ratio;
-  // The cleaned design differs little from the stored one: its solve starts from the stored equilibrium.
-  scene->initial = it.positions;
+  StartFromStoredEquilibrium(&*scene, it.positions);
   return ExportSceneDesign(std::move(scene).value(), it.energy_density_Pa, metrics->iterations[0].reinforced_density_J_per_m2,
                            h.scene + ", iteration " + std::to_string(k), out_dir, o, std::move(r), start, stages);
 }
@@ -222,22 +221,28 @@ Status WriteExportFiles(const std::string& out_dir, const std::vector<std::pair<
 
 namespace {
 
-Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& strain, double full_density, const std::string& label,
-                                       const std::string& out_dir, const ExportOptions& o, ExportReport r,
-                                       std::chrono::steady_clock::time_point start, Stages& stages) {
+// The faces a cleaning keeps as they are (attachments; clamp strips, a test sample's fixtures) and the
+// faces that are garment (not clamp strips).
+void KeepAndInclude(const SceneSpec& scene, std::vector<uint8_t>* keep, std::vector<uint8_t>* include) {
   const int nf = static_cast<int>(scene.garment.faces.rows());
-  const TriMesh& garment = scene.garment;
-  const Eigen::VectorXd rest_area = FaceAreas(garment.vertices, garment.faces);
-  // Clamp strips (a test sample's fixtures) are not garment.
-  std::vector<uint8_t> keep(nf, 0), include(nf, 1);
-  for (int a : scene.attachment_faces) keep[a] = 1;
+  keep->assign(nf, 0);
+  include->assign(nf, 1);
+  for (int a : scene.attachment_faces) (*keep)[a] = 1;
   if (scene.effects.clamps && !scene.clamps.empty()) {
-    std::vector<char> clamped(garment.vertices.rows(), 0);
+    std::vector<char> clamped(scene.garment.vertices.rows(), 0);
     for (const Clamp& c : scene.clamps)
       for (int v : c.vertices) clamped[v] = 1;
     for (int f = 0; f < nf; ++f)
-      if (clamped[garment.faces(f, 0)] && clamped[garment.faces(f, 1)] && clamped[garment.faces(f, 2)]) include[f] = 0, keep[f] = 1;
+      if (clamped[scene.garment.faces(f, 0)] && clamped[scene.garment.faces(f, 1)] && clamped[scene.garment.faces(f, 2)]) (*include)[f] = 0, (*keep)[f] = 1;
   }
+}
+
+Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& strain, double full_density, const std::string& label,
+                                       const std::string& out_dir, const ExportOptions& o, ExportReport r,
+                                       std::chrono::steady_clock::time_point start, Stages& stages) {
+  const TriMesh& garment = scene.garment;
+  std::vector<uint8_t> keep, include;
+  KeepAndInclude(scene, &keep, &include);
   KGD_RETURN_IF_ERROR(CheckReinforced(scene.design, include, label));
 
   // The pattern depends on the garment and its seams alone: it is cut on a thread of its own while the
@@ -253,19 +258,15 @@ Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& s
   });
   const int threads = omp_get_max_threads();
   omp_set_num_threads(1);
-  stages.Begin("cleaning the design for manufacture", 0.1);
-  r.cleaned = CleanDesign(garment, scene.design, o.cleaning, keep);
-
-  // The cleaned design, simulated as the design loop does.
-  stages.Begin("simulating the cleaned design (the pattern is cut alongside)", 0.2);
-  SceneSpec cleaned = scene;
-  cleaned.design = r.cleaned.design;
-  Result<SimulationResult> sim = SimulateScene(cleaned);
+  Result<CleanedSimulation> sim = SimulateCleanedDesign(scene, full_density, o.cleaning, [&](const std::string& stage, double fraction) {
+    stages.Begin(stage == "simulating the cleaned design" ? stage + " (the pattern is cut alongside)" : stage, fraction);
+  });
   omp_set_num_threads(threads);
-  if (!sim.ok()) return sim.status().WithContext("export: the cleaned design: ");
-  r.cleaned_density_ratio = full_density > 0 ? sim->reinforced_density_J_per_m2 / full_density : 0;
-  r.cleaned_area_fraction = sim->reinforced_area_m2 / rest_area.sum();
-  r.cleaned_solve_status = ToString(sim->solve.status);
+  if (!sim.ok()) return sim.status();
+  r.cleaned = std::move(sim->cleaned);
+  r.cleaned_density_ratio = sim->density_ratio;
+  r.cleaned_area_fraction = sim->area_fraction;
+  r.cleaned_solve_status = sim->solve_status;
 
   Files files;
   stages.Begin("finishing the pattern", 0.5);
@@ -282,6 +283,32 @@ Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& s
 }
 
 }  // namespace
+
+void StartFromStoredEquilibrium(SceneSpec* scene, const Positions& equilibrium) {
+  // A garment cut from the body has its attachment anchors on the body (on_body); a garment of its own
+  // has them at its start positions, which must stay where the design job had them.
+  if (scene->on_body.rows() > 0 && equilibrium.rows() == scene->initial.rows()) scene->initial = equilibrium;
+}
+
+Result<CleanedSimulation> SimulateCleanedDesign(const SceneSpec& scene, double full_density, const CleaningOptions& cleaning,
+                                                const std::function<void(const std::string& stage, double fraction)>& progress) {
+  if (scene.design.size() != static_cast<size_t>(scene.garment.faces.rows())) return Status::Error("export: scene '" + scene.name + "' has no design");
+  std::vector<uint8_t> keep, include;
+  KeepAndInclude(scene, &keep, &include);
+  if (progress) progress("cleaning the design for manufacture", 0.1);
+  CleanedSimulation out;
+  out.cleaned = CleanDesign(scene.garment, scene.design, cleaning, keep);
+  // The cleaned design, simulated as the design loop does.
+  if (progress) progress("simulating the cleaned design", 0.2);
+  SceneSpec cleaned = scene;
+  cleaned.design = out.cleaned.design;
+  Result<SimulationResult> sim = SimulateScene(cleaned);
+  if (!sim.ok()) return sim.status().WithContext("export: the cleaned design: ");
+  out.density_ratio = full_density > 0 ? sim->reinforced_density_J_per_m2 / full_density : 0;
+  out.area_fraction = sim->reinforced_area_m2 / FaceAreas(scene.garment.vertices, scene.garment.faces).sum();
+  out.solve_status = ToString(sim->solve.status);
+  return out;
+}
 
 Result<ExportFiles> ExportGeometry(const DesignFileHeader& h, const BesoIteration& it, const ExportOptions& o) {
   const auto start = std::chrono::steady_clock::now();

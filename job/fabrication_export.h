@@ -62,11 +62,31 @@ Result<ExportReport> ExportDesign(const std::string& design_file, const std::str
 // its density ratio against the same garment fully reinforced. `iteration` in the report is -1.
 Result<ExportReport> ExportScene(const SceneSpec& scene, const std::string& out_dir, const ExportOptions& options);
 
+// A design cleaned for manufacture and simulated again, as every export does: `scene.design` cleaned
+// (CleanDesign with `cleaning`; attachments and clamp strips kept as they are) and solved from
+// `scene.initial` (an export starts it from the stored equilibrium), its density ratio against
+// `full_density` (the fully reinforced design's reinforced density). `progress` (optional) hears the
+// stages as ExportOptions::progress does. The design worker makes this for a job's last design, so that
+// the service's cut files report it (kgd.v1.CleanedDesign).
+// Where the cleaned design of a stored iteration starts its solve: the stored equilibrium (it differs
+// little from the stored design) for a garment cut from the body; a garment of its own starts where the
+// design job started it, since its attachment anchors are its start positions (moving them would move
+// its attachments).
+void StartFromStoredEquilibrium(SceneSpec* scene, const Positions& equilibrium);
+
+struct CleanedSimulation {
+  CleanedDesign cleaned;
+  double area_fraction = 0, density_ratio = 0;
+  std::string solve_status;
+};
+Result<CleanedSimulation> SimulateCleanedDesign(const SceneSpec& scene, double full_density, const CleaningOptions& cleaning,
+                                                const std::function<void(const std::string& stage, double fraction)>& progress = nullptr);
+
 // The files of an export from a design file's header and one iteration (with its arrays), in memory,
 // by geometry alone: no scene is built and nothing is simulated (the report's cleaned density ratio is
 // 0 and its solve status "not simulated"; no clamp strips are known, and kgd chooses the seams, since
 // the scene file's are not stored). What the design service offers for download, since it never
-// simulates.
+// simulates (it fills in its worker's SimulateCleanedDesign of a job's last design).
 struct ExportFiles {
   std::vector<std::pair<std::string, std::string>> files;  // name (pattern.svg, ..., report.json), contents
   ExportReport report;

@@ -1,4 +1,5 @@
 #include "proto/job_spec.h"
+#include "core/mesh/mesh_io.h"
 #include "core/scene/scene_file.h"
 #include "core/scene/builtin_scenes.h"
 #include "core/scene/paper_scenes.h"
@@ -209,8 +210,11 @@ Status ValidateJobSpec(const v1::JobSpec& spec) {
       }
       if (!known) return Status::Error("spec.builtin_scene: '" + spec.builtin_scene() + "' is not a built-in scene (one of: " + list + ")");
       std::vector<std::string> body(spec.body().begin(), spec.body().end());
-      if (Result<std::optional<BodyMeasurements>> m = ParseBodyMeasurements(body); !m.ok())
-        return m.status().WithContext("spec.body: ");
+      Result<std::optional<BodyMeasurements>> m = ParseBodyMeasurements(body);
+      if (!m.ok()) return m.status().WithContext("spec.body: ");
+      // Each within its range (the parametric body's rule: the worker would refuse the body later).
+      if (*m)
+        if (Status st = ValidateMeasurements(**m); !st.ok()) return st.WithContext("spec.body: ");
       if (Status st = CheckMotionWeightValues(spec.optimizer()); !st.ok()) return st.WithContext("spec.optimizer: ");
       if (Status st = CheckMotionWeightNames(spec.optimizer(), BuiltinMotionNames(spec.builtin_scene()), spec.builtin_scene()); !st.ok())
         return st.WithContext("spec.optimizer: ");
@@ -224,6 +228,14 @@ Status ValidateJobSpec(const v1::JobSpec& spec) {
       for (const auto& [key, path] : FilesNamed(spec.scene_files().scene()))
         if (spec.scene_files().files().count(path) == 0)
           return Status::Error("spec.scene_files.scene." + key + ": '" + path + "' is not among the files sent");
+      // What the scene loader would refuse before reading a file: no garment; and meshes that are not
+      // meshes (a photo sent as body.obj), by their first bytes.
+      if (Status st = CheckSceneHasGarment(SceneJson(spec.scene_files().scene()), "spec.scene_files.scene"); !st.ok()) return st;
+      for (const auto& [key, path] : FilesNamed(spec.scene_files().scene()))
+        if (key.rfind("body.", 0) == 0 || key.rfind("motions.", 0) == 0 || key.rfind("bodies.", 0) == 0 || key == "garment.rest" ||
+            key == "garment.initial")
+          if (Status st = CheckMeshBytes(spec.scene_files().files().at(path), path); !st.ok())
+            return st.WithContext("spec.scene_files.scene." + key + ": ");
       break;
     }
     default:

@@ -45,13 +45,26 @@ TEST(JobSpec, RejectsBadSpecsNamingTheField) {
   s = Builtin("arm_flexion");
   s.add_body("height_m=tall");
   EXPECT_NE(message(s).find("spec.body"), std::string::npos);
+  // A measurement outside the parametric body's range, refused naming it, the value and the range.
+  s = Builtin("knee_flexion");
+  s.add_body("height_m=5");
+  EXPECT_EQ(message(s), "spec.body: body measurement height_m = 5 is outside [1.2, 2.2]");
+  s = Builtin("knee_flexion");
+  s.add_body("height_m=1.8");
+  EXPECT_TRUE(ValidateJobSpec(s).ok()) << message(s);
   s = v1::JobSpec();
   s.mutable_scene_files();
   EXPECT_NE(message(s).find("spec.scene_files.scene: missing"), std::string::npos) << message(s);
   s.mutable_scene_files()->mutable_scene()->mutable_body()->add_frames("frames/f1.obj");
   EXPECT_NE(message(s).find("spec.scene_files.scene.body.frames: 'frames/f1.obj' is not among the files sent"),
             std::string::npos) << message(s);
-  (*s.mutable_scene_files()->mutable_files())["frames/f1.obj"] = "x";
+  (*s.mutable_scene_files()->mutable_files())["frames/f1.obj"] = "v 0 0 0\n";
+  // A scene without a garment, and a garment mesh that is a photo, are refused before any file is parsed.
+  EXPECT_EQ(message(s), "spec.scene_files.scene: garment: missing (give garment.rest, or garment.region with body.rest and body.deformed)");
+  s.mutable_scene_files()->mutable_scene()->mutable_garment()->set_rest("g.obj");
+  (*s.mutable_scene_files()->mutable_files())["g.obj"] = std::string("\x89PNG\r\n\x1a\n\0\0\0\rIHDR", 16);
+  EXPECT_EQ(message(s), "spec.scene_files.scene.garment.rest: g.obj is not an OBJ or PLY mesh (line 1: \"\\x89PNG\" is not text)");
+  (*s.mutable_scene_files()->mutable_files())["g.obj"] = "# a garment\nv 0 0 0\n";
   EXPECT_TRUE(ValidateJobSpec(s).ok()) << message(s);
   s.mutable_scene_files()->mutable_scene()->mutable_garment()->mutable_seams()->set_string_value("seams.txt");
   EXPECT_NE(message(s).find("spec.scene_files.scene.garment.seams: 'seams.txt' is not among the files sent"), std::string::npos)
@@ -62,11 +75,11 @@ TEST(JobSpec, RejectsBadSpecsNamingTheField) {
   reach->set_deformed("reach.obj");
   EXPECT_NE(message(s).find("spec.scene_files.scene.motions.deformed: 'reach.obj' is not among the files sent"), std::string::npos)
       << message(s);
-  (*s.mutable_scene_files()->mutable_files())["reach.obj"] = "x";
+  (*s.mutable_scene_files()->mutable_files())["reach.obj"] = "v 0 0 0\n";
   reach->add_frames("reach_1.obj");
   EXPECT_NE(message(s).find("spec.scene_files.scene.motions.frames: 'reach_1.obj' is not among the files sent"), std::string::npos)
       << message(s);
-  (*s.mutable_scene_files()->mutable_files())["reach_1.obj"] = "x";
+  (*s.mutable_scene_files()->mutable_files())["reach_1.obj"] = "v 0 0 0\n";
   EXPECT_TRUE(ValidateJobSpec(s).ok()) << message(s);
   v1::SceneRangeBody* small = s.mutable_scene_files()->mutable_scene()->add_bodies();
   small->set_rest("s/rest.obj");

@@ -2,6 +2,7 @@
 
 #include <google/protobuf/util/json_util.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -54,10 +55,27 @@ std::string CookieValue(const httplib::Request& req, const std::string& name) {
 // `s` as a JSON string (quoted); bytes that are not UTF-8 become U+FFFD.
 std::string JsonString(const std::string& s) { return nlohmann::json(s).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
 
+// A message as people read it: control characters (a file's bytes quoted by a parser) as \xNN, at
+// most 2000 bytes.
+std::string Readable(const std::string& message) {
+  std::string out;
+  for (const char ch : message.substr(0, 2000)) {
+    const unsigned char c = static_cast<unsigned char>(ch);
+    if ((c < 0x20 && c != '\n' && c != '\t') || c == 0x7f) {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "\\x%02X", c);
+      out += hex;
+    } else {
+      out += ch;
+    }
+  }
+  return out + (message.size() > 2000 ? "..." : "");
+}
+
 void SetError(httplib::Response& res, int http_status, ServiceCode code, const std::string& message) {
   res.status = http_status;
   res.set_content("{\"error\": {\"code\": " + std::to_string(http_status) + ", \"status\": \"" + ServiceCodeName(code) +
-                      "\", \"message\": " + JsonString(message) + "}}\n",
+                      "\", \"message\": " + JsonString(Readable(message)) + "}}\n",
                   "application/json");
 }
 
@@ -426,6 +444,10 @@ void HttpGateway::Impl::CreateJob(const Request& req, Response& res) {
       return SetError(res, 400, ServiceCode::kInvalidArgument, "multipart upload: the part 'scene' (the scene file) is missing");
     const httplib::MultipartFormData scene_part = req.get_file_value("scene");
     const std::string source = "part 'scene'" + (scene_part.filename.empty() ? "" : " (" + scene_part.filename + ")");
+    // A file that is not text (a photo chosen as the scene: JSON has no control characters) is named, not quoted.
+    const std::string head = scene_part.content.substr(0, 4096);
+    if (std::any_of(head.begin(), head.end(), [](char c) { return (static_cast<unsigned char>(c) < 0x20 && c != '\n' && c != '\r' && c != '\t') || c == 0x7f; }))
+      return SetError(res, 400, ServiceCode::kInvalidArgument, source + " is not a JSON scene file: it is not text");
     Result<v1::Scene> scene = ParseSceneJson(scene_part.content, source);
     if (!scene.ok()) return SetError(res, 400, ServiceCode::kInvalidArgument, scene.message());
     v1::SceneFiles* files = r.mutable_spec()->mutable_scene_files();

@@ -11,6 +11,7 @@
 #include <future>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -69,13 +70,17 @@ std::pair<int64_t, int64_t> CountMesh(const std::string& bytes) {
   return {vertices, faces};
 }
 
-// The limits a job spec can break before it is validated: iterations, uploaded meshes, frames.
+// The limits a job spec can break before it is validated: iterations, uploaded meshes, frames. An
+// iteration limit above the server's is a bad argument (INVALID_ARGUMENT: the same spec is refused
+// whenever it is sent); the sizes of what was sent are RESOURCE_EXHAUSTED.
 ServiceStatus CheckLimits(const ServiceLimits& limits, const v1::JobSpec& spec) {
   auto over = [](const std::string& what, int64_t value, int64_t limit, const std::string& flag) {
     return Error(ServiceCode::kResourceExhausted, what + " " + std::to_string(value) + " is over the limit of " + std::to_string(limit) + " (" + flag + ")");
   };
   if (limits.max_iterations > 0 && spec.optimizer().max_iterations() > limits.max_iterations)
-    return over("optimizer.maxIterations", spec.optimizer().max_iterations(), limits.max_iterations, "--max-iterations");
+    return Error(ServiceCode::kInvalidArgument, "spec.optimizer.max_iterations: " + std::to_string(spec.optimizer().max_iterations()) +
+                                                    " is above this server's limit of " + std::to_string(limits.max_iterations) +
+                                                    " iterations (--max-iterations)");
   if (!spec.has_scene_files()) return ServiceStatus::Ok();
   const v1::SceneFiles& files = spec.scene_files();
   // The frames of every motion: the body's own and the scene's other motions'.
@@ -92,6 +97,19 @@ ServiceStatus CheckLimits(const ServiceLimits& limits, const v1::JobSpec& spec) 
     if (limits.max_mesh_faces > 0 && faces > limits.max_mesh_faces) return over(name + ": faces", faces, limits.max_mesh_faces, "--max-mesh-faces");
   }
   return ServiceStatus::Ok();
+}
+
+// The worker's figures of a cleaned design (CleanedDesign) in an export's report, when the export's
+// cleaned design is the one the worker simulated (the same cleaning of the same design gives the same
+// bits): what `kgd export` reports for it.
+void ApplyCleanedSimulation(const v1::CleanedDesign& c, ExportFiles* files) {
+  ExportReport& r = files->report;
+  if (std::string(r.cleaned.design.begin(), r.cleaned.design.end()) != c.design()) return;
+  r.cleaned_density_ratio = c.density_ratio();
+  r.cleaned_area_fraction = c.area_fraction();
+  r.cleaned_solve_status = c.solve_status();
+  for (auto& [name, contents] : files->files)
+    if (name == "report.json") contents = ExportReportJson(r);
 }
 
 }  // namespace
@@ -144,6 +162,16 @@ struct JobService::Impl {
   // from the jobs they finish; ListScenes' predictions use it.
   std::mutex calibration_mu;
   std::string CostCalibrationFile() const { return (fs::path(options.data_dir) / "cost_calibration.json").string(); }
+  // A worker's speed measured before its first job: these workers' factor until a job has finished here.
+  void LearnFromWorkerSpeed(const v1::MachineSpeed& speed, const std::string& worker) {
+    std::lock_guard lock(calibration_mu);
+    if (ReadMachineFactor(CostCalibrationFile()).jobs > 0) return;
+    RecordDesignTime(CostCalibrationFile(), speed.predicted_s(), speed.measured_s());
+    const MachineFactor f = ReadMachineFactor(CostCalibrationFile());
+    if (f.jobs > 0)
+      Log("machine factor " + FormatLimit(f.factor) + " from worker " + worker + "'s measurement (" + speed.what() + ": " +
+          FormatLimit(speed.measured_s()) + " s, the reference machine " + FormatLimit(speed.predicted_s()) + " s)");
+  }
   void LearnFromFinishedJob(int64_t id) {
     Result<std::optional<v1::Job>> job = store->GetJob(id);
     if (!job.ok() || !*job || (*job)->iterations() < 2 || (*job)->garment_faces() <= 0) return;
@@ -468,6 +496,7 @@ ServiceStatus JobService::ListScenes(v1::ListScenesResponse* out) {
   }();
   out->set_machine_factor(machine.factor);
   out->set_machine_factor_jobs(machine.jobs);
+  out->set_max_iterations(impl_->options.limits.max_iterations);
   for (const BuiltinSceneInfo& s : BuiltinSceneInfos()) {
     v1::BuiltinScene* b = out->add_scenes();
     b->set_name(s.name);
@@ -584,13 +613,14 @@ ServiceStatus JobService::WatchJob(const Caller& caller, const v1::WatchJobReque
   *first.mutable_job() = job;
   if (!write(first)) return ServiceStatus::Ok();
   v1::JobState sent_state = job.state();
+  bool sent_ended = !job.ended().empty();
   int next = req.from_iteration();
   uint64_t seen = m.CurrentVersion();
   while (!cancelled() && !m.stopping) {
-    // One snapshot (state, count) decides both what to send and whether the stream is complete.
-    const std::optional<std::pair<v1::JobState, int>> progress = m.store->Progress(req.id());
+    // One snapshot (state, count, end) decides both what to send and whether the stream is complete.
+    const std::optional<JobProgress> progress = m.store->Progress(req.id());
     if (!progress) return Error(ServiceCode::kNotFound, "job " + std::to_string(req.id()) + " does not exist");
-    const auto [state, stored] = *progress;
+    const auto [state, stored, ended] = *progress;
     for (; next < stored; ++next) {
       Result<std::shared_ptr<const v1::IterationRecord>> rec = m.StoredIteration(req.id(), next);
       if (!rec.ok()) return Internal(rec.status());
@@ -603,12 +633,14 @@ ServiceStatus JobService::WatchJob(const Caller& caller, const v1::WatchJobReque
       }
       if (!write(ev)) return ServiceStatus::Ok();
     }
-    if (state != sent_state) {
+    // A state change, or the design loop's end (the job's phase turns to EVALUATING).
+    if (state != sent_state || ended != sent_ended) {
       if (ServiceStatus st = m.FindJob(caller, req.id(), &job); !st.ok()) return st;
       v1::WatchJobEvent ev;
       *ev.mutable_job() = job;
       if (!write(ev)) return ServiceStatus::Ok();
       sent_state = job.state();
+      sent_ended = !job.ended().empty();
     }
     if (IsTerminal(state) && next >= stored) return ServiceStatus::Ok();
     seen = m.WaitEvent(seen, 1.0);
@@ -697,10 +729,17 @@ ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDes
       p.set_fraction(fraction);
       progress(p);
     };
+  // The worker simulated the job's last design cleaned at the default options (CleanedDesign): an export
+  // of it with that cleaning reports the figures.
+  std::optional<v1::CleanedDesign> simulated;
+  if (Result<std::optional<v1::CleanedDesign>> c = m.store->Cleaned(req.id());
+      c.ok() && *c && (*c)->iteration() == k && (*c)->min_feature_m() == o.cleaning.min_feature_m && o.cleaning.min_area_m2 == 0)
+    simulated = **c;
   // The caller may see this job (FindJob above): a cached export of it is theirs to have.
   char key[160];
-  std::snprintf(key, sizeof key, "%lld/%d/%.17g/%.17g/%.17g/%d", static_cast<long long>(req.id()), k, o.cleaning.min_feature_m,
-                o.sheet.seam_allowance_mm, o.sheet.sheet_width_mm, o.sheet.mirror ? 1 : 0);
+  std::snprintf(key, sizeof key, "%lld/%d/%.17g/%.17g/%.17g/%d/%zx", static_cast<long long>(req.id()), k, o.cleaning.min_feature_m,
+                o.sheet.seam_allowance_mm, o.sheet.sheet_width_mm, o.sheet.mirror ? 1 : 0,
+                simulated ? std::hash<std::string>()(simulated->SerializeAsString()) : size_t(0));
   std::shared_ptr<const ExportFiles> files;
   std::shared_future<Impl::ExportOutcome> in_progress;
   std::promise<Impl::ExportOutcome> made_here;
@@ -741,6 +780,7 @@ ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDes
         if (!f.ok()) return {Internal(f.status()), nullptr};
         Result<ExportFiles> made = ExportGeometry(f->header, f->iterations[k], o);
         if (!made.ok()) return {Error(ServiceCode::kInvalidArgument, "job " + std::to_string(req.id()) + ": " + made.message()), nullptr};
+        if (simulated) ApplyCleanedSimulation(*simulated, &*made);
         return {ServiceStatus::Ok(), std::make_shared<const ExportFiles>(std::move(made).value())};
       } catch (const std::exception& e) {
         return {Error(ServiceCode::kInternal, "job " + std::to_string(req.id()) + ": the export failed: " + e.what()), nullptr};
@@ -771,6 +811,7 @@ ServiceStatus JobService::LeaseJob(const Caller& caller, const v1::LeaseJobReque
                                    const std::function<bool()>& cancelled) {
   Impl& m = *impl_;
   if (caller.role == Role::kUser) return Error(ServiceCode::kPermissionDenied, "only a worker's token may lease jobs");
+  if (req.has_speed()) m.LearnFromWorkerSpeed(req.speed(), req.worker());
   const double deadline = Now() + std::clamp(req.wait_s(), 0.0, 60.0);
   uint64_t seen = m.CurrentVersion();
   while (!m.draining && !m.stopping && !cancelled()) {
@@ -851,6 +892,15 @@ ServiceStatus JobService::RunJob(const Caller& caller, const std::function<bool(
         m.Notify();  // watchers first: the lease renewal is one more SQLite commit
         m.store->Renew(job_id, lease_id, Now(), m.options.lease_duration_s);
       }
+    } else if (msg.has_ended()) {
+      if (Status st = started ? m.store->SetEnded(job_id, lease_id, msg.ended()) : Status::Error("an end report before start"); !st.ok())
+        refused = st.message();
+      else
+        m.Notify();  // watchers: the job's phase is now EVALUATING
+    } else if (msg.has_cleaned()) {
+      // An extra after the last iteration, as the evaluation: one that cannot be stored is logged.
+      if (Status st = m.store->SetCleaned(job_id, lease_id, msg.cleaned()); !st.ok())
+        m.Log("job " + std::to_string(job_id) + ": cleaned design not stored: " + st.message());
     } else if (msg.has_evaluation()) {
       // An extra after the last iteration: one that cannot be stored is logged, and the job goes on.
       int faces = 0, vertices = 0;

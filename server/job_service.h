@@ -103,7 +103,9 @@ class JobService {
   // Every call names its caller (server/auth.h). A `user` sees only the jobs it created: another's
   // job is NOT_FOUND, as if it did not exist; an `admin` sees all; a `worker` may not call these
   // (PERMISSION_DENIED).
-  // The built-in scenes and the parametric body's measurements (a fixed table: nothing is built).
+  // The built-in scenes and the parametric body's measurements (a fixed table: nothing is built), the
+  // iteration limit, and the predictions at the workers' machine factor (learned from the jobs they
+  // finish; before the first, from the speed a worker measured: LeaseJobRequest.speed).
   ServiceStatus ListScenes(v1::ListScenesResponse* response);
   // Prometheus text exposition of the service's figures (server/service_metrics.h).
   std::string MetricsText();
@@ -119,8 +121,10 @@ class JobService {
   // The bytes of the job's design file (DIR/jobs/job-N.h5) once it has ended: FAILED_PRECONDITION while
   // it is queued or running, NOT_FOUND when it stored no iteration.
   ServiceStatus GetDesignFile(const Caller& caller, int64_t id, std::string* bytes);
-  // Cut files of one stored iteration, by geometry alone (job/fabrication_export.h, ExportGeometry).
-  // `progress` (optional) is called as each stage of a computed export starts.
+  // Cut files of one stored iteration, by geometry alone (job/fabrication_export.h, ExportGeometry);
+  // the report of the job's last iteration at the default cleaning gives the cleaned design's density
+  // ratio its worker simulated (kgd.v1.CleanedDesign). `progress` (optional) is called as each stage of
+  // a computed export starts.
   ServiceStatus ExportDesign(const Caller& caller, const v1::ExportDesignRequest& request, v1::ExportDesignResponse* response,
                              const std::function<void(const v1::ExportProgress&)>& progress = nullptr);
   // Sends the job, its stored iterations from request.from_iteration(), then every new one and every
@@ -137,7 +141,8 @@ class JobService {
   // -- For workers ---------------------------------------------------------------------------------
   // Callers with the `worker` or `admin` role; a `user` gets PERMISSION_DENIED.
   // Leases the oldest queued job, waiting up to request.wait_s() for one (response.leased() false when
-  // none came, or the service drains or stops).
+  // none came, or the service drains or stops). A request's speed is taken as the workers' machine
+  // factor while no job has finished here.
   ServiceStatus LeaseJob(const Caller& caller, const v1::LeaseJobRequest& request, v1::LeaseJobResponse* response, const std::function<bool()>& cancelled);
   // One worker's RunJob stream on a leased job: `read` gives the worker's messages (false: the stream
   // ended), `write` sends the replies. Returns when the worker ends the lease, the stream ends, or the

@@ -18,6 +18,7 @@
 #include "core/mesh/mesh_io.h"
 #include "core/scene/shapes.h"
 #include "proto/records.h"
+#include "job/fabrication_export.h"
 #include "server/job_results.h"
 
 namespace kgd::server {
@@ -288,13 +289,15 @@ struct Watch {
   ServiceStatus status;
   std::atomic<bool> stop{false};
   std::thread thread;
+  std::atomic<int> job_events{0};  // job snapshots received so far (readable while the watch runs)
 
   Watch(JobService& s, int64_t id, int from, const Caller& caller = kAlice) {
     thread = std::thread([this, &s, id, from, caller] {
       v1::WatchJobRequest r;
       r.set_id(id);
       r.set_from_iteration(from);
-      status = s.WatchJob(caller, r, [this](const v1::WatchJobEvent& e) { return events.push_back(e), true; }, [this] { return stop.load(); });
+      status = s.WatchJob(
+          caller, r, [this](const v1::WatchJobEvent& e) { return events.push_back(e), job_events += e.has_job(), true; }, [this] { return stop.load(); });
     });
   }
   ~Watch() {
@@ -365,7 +368,14 @@ TEST(JobService, EachLimitIsHitAndNamed) {
     EXPECT_NE(st.message.find(flag), std::string::npos) << st.message;
   };
   v1::Job job;
-  refusal(s->CreateJob(kAlice, SleeveJob(21), &job), "--max-iterations");
+  // An iteration limit above the server's is a bad argument, not a lack of resources: the same spec is
+  // refused whenever it is sent.
+  const ServiceStatus too_many = s->CreateJob(kAlice, SleeveJob(21), &job);
+  EXPECT_EQ(too_many.code, ServiceCode::kInvalidArgument) << too_many.message;
+  EXPECT_EQ(too_many.message, "spec.optimizer.max_iterations: 21 is above this server's limit of 20 iterations (--max-iterations)");
+  v1::ListScenesResponse scenes;
+  ASSERT_TRUE(s->ListScenes(&scenes).ok());
+  EXPECT_EQ(scenes.max_iterations(), 20) << "the page checks the limit before it submits";
   ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(20), &job).ok());
   ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(), &job).ok());
   refusal(s->CreateJob(kAlice, SleeveJob(), &job), "--max-queued-per-user");
@@ -397,6 +407,144 @@ TEST(JobService, EachLimitIsHitAndNamed) {
   refusal(s->TakeWatchPlace(&second), "--max-watchers");
   place.reset();
   EXPECT_TRUE(s->TakeWatchPlace(&second).ok());
+}
+
+// Bad specs are refused when they are submitted, naming the field and the value, before any job exists:
+// a body measurement outside the parametric body's range, a scene file without a garment, a mesh that
+// is a photo.
+TEST(JobService, BadSpecsAreRefusedAtSubmissionNamingTheFieldAndTheValue) {
+  auto s = Open(Options(FreshDir("refusals")));
+  ASSERT_TRUE(s);
+  auto refused = [&](const v1::CreateJobRequest& r) {
+    v1::Job job;
+    const ServiceStatus st = s->CreateJob(kAlice, r, &job);
+    EXPECT_EQ(st.code, ServiceCode::kInvalidArgument) << st.message;
+    return st.message;
+  };
+  v1::CreateJobRequest tall;
+  tall.mutable_spec()->set_builtin_scene("knee_flexion");
+  tall.mutable_spec()->add_body("height_m=5");
+  EXPECT_EQ(refused(tall), "spec.body: body measurement height_m = 5 is outside [1.2, 2.2]");
+  v1::CreateJobRequest no_garment;
+  v1::SceneFiles* files = no_garment.mutable_spec()->mutable_scene_files();
+  files->mutable_scene()->mutable_body()->set_mesh("body.obj");
+  (*files->mutable_files())["body.obj"] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  EXPECT_EQ(refused(no_garment), "spec.scene_files.scene: garment: missing (give garment.rest, or garment.region with body.rest and body.deformed)");
+  files->mutable_scene()->mutable_garment()->set_rest("photo.obj");
+  (*files->mutable_files())["photo.obj"] = std::string("\x89PNG\r\n\x1a\n\0\0\0\rIHDR", 16);
+  EXPECT_EQ(refused(no_garment), "spec.scene_files.scene.garment.rest: photo.obj is not an OBJ or PLY mesh (line 1: \"\\x89PNG\" is not text)");
+  v1::ListJobsResponse listed;
+  ASSERT_TRUE(s->ListJobs(kAlice, v1::ListJobsRequest(), &listed).ok());
+  EXPECT_EQ(listed.jobs_size(), 0) << "no job was made";
+}
+
+// The worker's end report: the job says how its design loop ended and, while the final design is
+// evaluated, that it is evaluating (watchers get the job again when the phase turns); the worker's
+// simulation of the cleaned last design fills the cut files' report of that iteration, and only when the
+// export's cleaned design is the one the worker simulated.
+TEST(JobService, TheEndReportTurnsTheJobToEvaluatingAndTheCleanedDesignFillsTheExportReport) {
+  auto s = Open(Options(FreshDir("ended")));
+  ASSERT_TRUE(s);
+  v1::Job job;
+  ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(2), &job).ok());
+  const v1::LeaseJobResponse lease = Lease(*s);
+  FakeStream w(*s);
+  w.Send(Start(lease.lease_id()));
+  Watch watch(*s, job.id(), 0);
+  ASSERT_TRUE(WaitFor([&] { return OpenWatchesAre(*s, 1); }, 10)) << s->MetricsText();
+  for (int k = 0; k < 3; ++k) w.Send(Report(lease.lease_id(), k));
+  EXPECT_EQ(Job(*s, job.id()).phase(), v1::DESIGNING);
+  EXPECT_EQ(Job(*s, job.id()).ended(), "");
+  const std::string sentence = "stopped at the iteration limit (2) at 80.0 % of the garment, above the budget of 15 %";
+  v1::WorkerMessage ended;
+  ended.set_lease_id(lease.lease_id());
+  ended.set_ended(sentence);
+  EXPECT_EQ(w.Send(ended).error(), "");
+  EXPECT_EQ(Job(*s, job.id()).state(), v1::RUNNING);
+  EXPECT_EQ(Job(*s, job.id()).phase(), v1::EVALUATING);
+  EXPECT_EQ(Job(*s, job.id()).ended(), sentence);
+
+  // The cut files' report of iteration 2: "not simulated" until the worker's figures come.
+  auto report = [&](int k) {
+    v1::ExportDesignRequest r;
+    r.set_id(job.id());
+    r.set_iteration(k);
+    v1::ExportDesignResponse out;
+    const ServiceStatus st = s->ExportDesign(kAlice, r, &out);
+    EXPECT_TRUE(st.ok()) << st.message;
+    return st.ok() ? out.files().at("report.json") : std::string();
+  };
+  EXPECT_NE(report(2).find("\"solve_status\": \"not simulated\""), std::string::npos) << report(2);
+  Result<ExportFiles> geometry = ExportGeometry(Garment(), Iteration(2), ExportOptions());
+  ASSERT_TRUE(geometry.ok()) << geometry.message();
+  const std::vector<uint8_t>& bits = geometry->report.cleaned.design;
+  v1::WorkerMessage cleaned;
+  cleaned.set_lease_id(lease.lease_id());
+  v1::CleanedDesign* c = cleaned.mutable_cleaned();
+  c->set_iteration(2);
+  c->set_min_feature_m(CleaningOptions().min_feature_m);
+  c->set_design(std::string(bits.size(), '\1'));  // another design than the export's cleaning gives
+  ASSERT_NE(c->design(), std::string(bits.begin(), bits.end()));
+  c->set_area_fraction(0.75);
+  c->set_density_ratio(2.5);
+  c->set_solve_status("converged");
+  EXPECT_EQ(w.Send(cleaned).error(), "");
+  EXPECT_NE(report(2).find("\"solve_status\": \"not simulated\""), std::string::npos) << "figures of another design are not this one's";
+  c->set_design(std::string(bits.begin(), bits.end()));
+  EXPECT_EQ(w.Send(cleaned).error(), "");
+  const std::string simulated = report(2);
+  EXPECT_NE(simulated.find("\"density_ratio\": 2.5,"), std::string::npos) << simulated;
+  EXPECT_NE(simulated.find("\"solve_status\": \"converged\""), std::string::npos) << simulated;
+  EXPECT_NE(report(1).find("\"solve_status\": \"not simulated\""), std::string::npos) << "the worker simulated the last design only";
+
+  ASSERT_TRUE(WaitFor([&] { return watch.job_events == 2; }, 10)) << "the watcher hears the phase turn";
+  w.Send(Complete(lease.lease_id()));
+  w.WaitEnded();
+  watch.thread.join();
+  EXPECT_EQ(Job(*s, job.id()).state(), v1::SUCCEEDED);
+  EXPECT_EQ(Job(*s, job.id()).ended(), sentence);
+  EXPECT_EQ(Job(*s, job.id()).phase(), v1::JOB_PHASE_UNSPECIFIED);
+  // The watcher saw the job DESIGNING, then EVALUATING with its end (after the last iteration), then SUCCEEDED.
+  std::vector<std::string> seen;
+  for (const v1::WatchJobEvent& e : watch.events)
+    seen.push_back(e.has_iteration() ? "iteration " + std::to_string(e.iteration().metrics().iteration())
+                                     : v1::JobState_Name(e.job().state()) + " " + v1::JobPhase_Name(e.job().phase()));
+  EXPECT_EQ(seen, (std::vector<std::string>{"RUNNING DESIGNING", "iteration 0", "iteration 1", "iteration 2", "RUNNING EVALUATING",
+                                            "SUCCEEDED JOB_PHASE_UNSPECIFIED"}));
+  for (const v1::WatchJobEvent& e : watch.events)
+    if (e.has_job() && e.job().phase() == v1::EVALUATING) EXPECT_EQ(e.job().ended(), sentence);
+}
+
+// A worker's speed, measured before its first job, is the server's first machine factor: the scenes'
+// predictions are this machine's before any job has finished; a second worker's does not replace it.
+TEST(JobService, AWorkersMeasuredSpeedIsTheFactorOfTheFirstPredictions) {
+  auto s = Open(Options(FreshDir("speed")));
+  ASSERT_TRUE(s);
+  v1::ListScenesResponse before;
+  ASSERT_TRUE(s->ListScenes(&before).ok());
+  EXPECT_EQ(before.machine_factor(), 1.0);
+  EXPECT_EQ(before.machine_factor_jobs(), 0);
+  auto lease_with_speed = [&](double predicted_s, double measured_s) {
+    v1::LeaseJobRequest r;
+    r.set_worker("w");
+    r.set_wait_s(0);
+    r.mutable_speed()->set_predicted_s(predicted_s);
+    r.mutable_speed()->set_measured_s(measured_s);
+    r.mutable_speed()->set_what("knee_flexion, iterations 0-1");
+    v1::LeaseJobResponse out;
+    EXPECT_TRUE(s->LeaseJob(kWorker, r, &out, [] { return false; }).ok());
+  };
+  lease_with_speed(1.25, 2.5);
+  v1::ListScenesResponse after;
+  ASSERT_TRUE(s->ListScenes(&after).ok());
+  EXPECT_DOUBLE_EQ(after.machine_factor(), 2.0);
+  EXPECT_EQ(after.machine_factor_jobs(), 1);
+  for (int i = 0; i < after.scenes_size(); ++i)
+    for (const auto& [preset, seconds] : after.scenes(i).predicted_job_s())
+      EXPECT_GT(seconds, before.scenes(i).predicted_job_s().at(preset)) << after.scenes(i).name() << " " << preset;
+  lease_with_speed(1.0, 5.0);
+  ASSERT_TRUE(s->ListScenes(&after).ok());
+  EXPECT_DOUBLE_EQ(after.machine_factor(), 2.0) << "the first measurement stands until jobs teach more";
 }
 
 TEST(JobService, GarmentDesignFileEnergyPerAreaAndPlyComeFromTheStoredJob) {

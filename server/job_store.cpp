@@ -89,6 +89,10 @@ CREATE TABLE iteration_motions (
   FOREIGN KEY (job_id, iteration) REFERENCES iterations(job_id, iteration)
 ) WITHOUT ROWID;
 )sql",
+    R"sql(
+ALTER TABLE jobs ADD COLUMN ended TEXT NOT NULL DEFAULT '';    -- how the design loop ended (Job.ended)
+ALTER TABLE jobs ADD COLUMN cleaned BLOB NOT NULL DEFAULT '';  -- kgd.v1.CleanedDesign, serialized; empty: none
+)sql",
 };
 constexpr int kNumMigrations = sizeof(kMigrations) / sizeof(kMigrations[0]);
 static_assert(kNumMigrations == kSchemaVersion);
@@ -184,7 +188,7 @@ void ReadField(const Stmt& s, int c, google::protobuf::Message* m, const FieldDe
 Status SqlError(const std::string& what, const std::string& error) { return Status::Error("job store: " + what + ": " + error); }
 
 const char kJobColumns[] =
-    "id, spec, state, create_time_s, update_time_s, attempts, iterations, failure, lease_worker, cancel_requested, garment_faces, owner";
+    "id, spec, state, create_time_s, update_time_s, attempts, iterations, failure, lease_worker, cancel_requested, garment_faces, owner, ended";
 
 }  // namespace
 
@@ -277,6 +281,8 @@ Result<v1::Job> JobStore::ReadJob(sqlite3_stmt* row) {
   job.set_cancel_requested(sqlite3_column_int(row, 9) != 0);
   job.set_garment_faces(sqlite3_column_int(row, 10));
   job.set_owner(col_text(11));
+  job.set_ended(col_text(12));
+  if (job.state() == v1::RUNNING) job.set_phase(job.ended().empty() ? v1::DESIGNING : v1::EVALUATING);
   if (job.iterations() > 0) {
     Result<std::vector<v1::IterationMetrics>> last = Metrics(job.id(), job.iterations() - 1, job.iterations());
     if (!last.ok()) return last.status();
@@ -297,12 +303,12 @@ Result<std::optional<v1::Job>> JobStore::GetJob(int64_t id) {
   return std::optional<v1::Job>(std::move(job).value());
 }
 
-std::optional<std::pair<v1::JobState, int>> JobStore::Progress(int64_t id) {
+std::optional<JobProgress> JobStore::Progress(int64_t id) {
   std::lock_guard lock(mu_);
-  Stmt s(db_, "SELECT state, iterations FROM jobs WHERE id = ?");
+  Stmt s(db_, "SELECT state, iterations, ended != '' FROM jobs WHERE id = ?");
   s.Bind(1, id);
   if (s.Step() != SQLITE_ROW) return std::nullopt;
-  return std::make_pair(static_cast<v1::JobState>(s.Int(0)), static_cast<int>(s.Int(1)));
+  return JobProgress{static_cast<v1::JobState>(s.Int(0)), static_cast<int>(s.Int(1)), s.Int(2) != 0};
 }
 
 Result<std::vector<v1::Job>> JobStore::ListJobs(v1::JobState state, int64_t before_id, int limit, const std::optional<std::string>& owner) {
@@ -561,6 +567,37 @@ Status JobStore::TruncateIterations(int64_t job_id, int keep) {
     return SqlError("truncate iterations", del_motions.error() + del.error() + up.error());
   }
   return Exec("COMMIT");
+}
+
+Status JobStore::SetEnded(int64_t job_id, const std::string& lease_id, const std::string& ended) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, "UPDATE jobs SET ended = ? WHERE id = ? AND lease_id = ? AND state = ?");
+  s.Bind(1, ended).Bind(2, job_id).Bind(3, lease_id).Bind(4, static_cast<int>(v1::RUNNING));
+  if (!s.Run()) return SqlError("job end", s.error());
+  if (sqlite3_changes(db_) == 0) return Status::Error("the lease on job " + std::to_string(job_id) + " is no longer held");
+  return Status::Ok();
+}
+
+Status JobStore::SetCleaned(int64_t job_id, const std::string& lease_id, const v1::CleanedDesign& cleaned) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, "UPDATE jobs SET cleaned = ? WHERE id = ? AND lease_id = ? AND state = ?");
+  s.BindBlob(1, cleaned.SerializeAsString()).Bind(2, job_id).Bind(3, lease_id).Bind(4, static_cast<int>(v1::RUNNING));
+  if (!s.Run()) return SqlError("cleaned design", s.error());
+  if (sqlite3_changes(db_) == 0) return Status::Error("the lease on job " + std::to_string(job_id) + " is no longer held");
+  return Status::Ok();
+}
+
+Result<std::optional<v1::CleanedDesign>> JobStore::Cleaned(int64_t job_id) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, "SELECT cleaned FROM jobs WHERE id = ?");
+  s.Bind(1, job_id);
+  const int rc = s.Step();
+  if (rc != SQLITE_ROW && rc != SQLITE_DONE) return SqlError("cleaned design", s.error());
+  const std::string bytes = rc == SQLITE_ROW ? s.Text(0) : std::string();
+  if (bytes.empty()) return std::optional<v1::CleanedDesign>();
+  v1::CleanedDesign c;
+  if (!c.ParseFromString(bytes)) return SqlError("job " + std::to_string(job_id), "stored cleaned design does not parse");
+  return std::optional<v1::CleanedDesign>(std::move(c));
 }
 
 Status JobStore::SetGarmentFaces(int64_t job_id, int faces) {

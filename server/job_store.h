@@ -2,7 +2,8 @@
 //
 // Tables (schema version in PRAGMA user_version; Open migrates older databases and refuses newer):
 //   jobs        one row per job: spec (kgd.v1.JobSpec), state, attempts, the lease (id, worker,
-//               expiry), the number of stored iterations, failure reason, cancel request
+//               expiry), the number of stored iterations, failure reason, cancel request, how the
+//               design loop ended (Job.ended) and the worker's cleaned final design (kgd.v1.CleanedDesign)
 //   iterations  one row per (job, iteration): every IterationMetrics field as a column of the same
 //               name, and the design (one byte per face)
 //   iteration_motions  one row per (job, iteration, motion): every MotionMetrics field as a column of
@@ -28,7 +29,7 @@
 
 namespace kgd::server {
 
-inline constexpr int kSchemaVersion = 4;
+inline constexpr int kSchemaVersion = 5;
 
 struct Lease {
   std::string lease_id;
@@ -36,6 +37,13 @@ struct Lease {
   v1::JobSpec spec;
   int attempt = 0;
   int iterations = 0;  // stored so far: the job resumes after iteration iterations-1
+};
+
+// A job's state, stored iteration count and whether its design loop has ended (Job.ended).
+struct JobProgress {
+  v1::JobState state = v1::JOB_STATE_UNSPECIFIED;
+  int iterations = 0;
+  bool ended = false;
 };
 
 // What became of a job whose lease ended without the worker finishing it.
@@ -51,8 +59,8 @@ class JobStore {
   // The job as clients see it (spec, state, counts, last metrics); nullopt when there is none.
   Result<std::optional<v1::Job>> GetJob(int64_t id);
   // Newest first, ids below `before_id` (0: from the newest); `state` UNSPECIFIED: all.
-  // A job's state and stored iteration count alone (the cheap poll of watchers); nullopt: no such job.
-  std::optional<std::pair<v1::JobState, int>> Progress(int64_t id);
+  // A job's progress alone (the cheap poll of watchers); nullopt: no such job.
+  std::optional<JobProgress> Progress(int64_t id);
   // `owner` given: that user's jobs only.
   Result<std::vector<v1::Job>> ListJobs(v1::JobState state, int64_t before_id, int limit, const std::optional<std::string>& owner = {});
   // Jobs of `owner` waiting in the queue.
@@ -92,6 +100,11 @@ class JobStore {
   // Keeps iterations 0..keep-1 of a job (start-up repair when its HDF5 file holds fewer).
   Status TruncateIterations(int64_t job_id, int keep);
   Status SetGarmentFaces(int64_t job_id, int faces);
+  // How the design loop of a job held by `lease_id` ended (Job.ended; its phase is then EVALUATING).
+  Status SetEnded(int64_t job_id, const std::string& lease_id, const std::string& ended);
+  // The worker's cleaned final design of a job held by `lease_id`, and the one stored (nullopt: none).
+  Status SetCleaned(int64_t job_id, const std::string& lease_id, const v1::CleanedDesign& cleaned);
+  Result<std::optional<v1::CleanedDesign>> Cleaned(int64_t job_id);
 
   // PRAGMA integrity_check: "ok" or the problems.
   std::string IntegrityCheck();

@@ -69,7 +69,9 @@ TEST(JobStore, AVersion2DatabaseGainsTheSolveProfileColumns) {
     for (const char* c : {"assembly_s", "factorization_s", "linear_solve_s", "line_search_s", "body_field_query_s", "membrane_s",
                           "fold_barrier_s", "attachment_s", "contact_s", "friction_s", "bending_s"})
       ASSERT_EQ(sqlite3_exec(db, (std::string("ALTER TABLE iterations DROP COLUMN ") + c).c_str(), nullptr, nullptr, nullptr), SQLITE_OK) << c;
-    ASSERT_EQ(sqlite3_exec(db, "DROP TABLE iteration_motions; PRAGMA user_version=2", nullptr, nullptr, nullptr), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "DROP TABLE iteration_motions; ALTER TABLE jobs DROP COLUMN ended; ALTER TABLE jobs DROP COLUMN cleaned; PRAGMA user_version=2",
+                           nullptr, nullptr, nullptr),
+              SQLITE_OK);
     sqlite3_close(db);
   }
   auto store = std::move(JobStore::Open(path)).value();
@@ -124,7 +126,9 @@ TEST(JobStore, EveryIterationsMotionsRoundTripAndAVersion3DatabaseGainsTheirTabl
   {
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(db, "DROP TABLE iteration_motions; PRAGMA user_version=3", nullptr, nullptr, nullptr), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "DROP TABLE iteration_motions; ALTER TABLE jobs DROP COLUMN ended; ALTER TABLE jobs DROP COLUMN cleaned; PRAGMA user_version=3",
+                           nullptr, nullptr, nullptr),
+              SQLITE_OK);
     sqlite3_close(db);
   }
   Result<std::unique_ptr<JobStore>> opened = JobStore::Open(path);
@@ -152,6 +156,55 @@ TEST(JobStore, EveryIterationsMotionsRoundTripAndAVersion3DatabaseGainsTheirTabl
   ASSERT_TRUE(store->AppendIteration(job, lease, again, std::string(3, '\1')).ok());
   EXPECT_TRUE(Same((**store->GetJob(job)).last(), again)) << (**store->GetJob(job)).last().DebugString();
   EXPECT_EQ(store->IntegrityCheck(), "ok");
+}
+
+// How the design loop ended and the cleaned final design: stored by the lease holder only, read back
+// as they were; the running job's phase is DESIGNING until the end is known, then EVALUATING; a
+// version-4 database (without the columns) opens with neither.
+TEST(JobStore, TheEndAndTheCleanedDesignRoundTripForTheHolderAndAVersion4DatabaseGainsThem) {
+  const std::string path = FreshPath("v4");
+  int64_t job = 0;
+  {
+    auto store = std::move(JobStore::Open(path)).value();
+    job = *store->CreateJob(Spec(), 3, 100.0);
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "ALTER TABLE jobs DROP COLUMN ended; ALTER TABLE jobs DROP COLUMN cleaned; PRAGMA user_version=4", nullptr, nullptr, nullptr),
+              SQLITE_OK);
+    sqlite3_close(db);
+  }
+  Result<std::unique_ptr<JobStore>> opened = JobStore::Open(path);
+  ASSERT_TRUE(opened.ok()) << opened.message();
+  auto store = std::move(opened).value();
+  EXPECT_EQ((**store->GetJob(job)).ended(), "");
+  EXPECT_EQ((**store->GetJob(job)).phase(), v1::JOB_PHASE_UNSPECIFIED) << "a queued job has no phase";
+  EXPECT_FALSE(*store->Cleaned(job));
+  const std::string lease = (**store->LeaseNext("w1", 101.0, 1000.0)).lease_id;
+  EXPECT_EQ((**store->GetJob(job)).phase(), v1::DESIGNING);
+  EXPECT_FALSE(store->Progress(job)->ended);
+  const std::string ended = "stopped at the iteration limit (5) at 92.7 % of the garment, above the budget of 10 %";
+  EXPECT_FALSE(store->SetEnded(job, "another lease", ended).ok());
+  EXPECT_EQ((**store->GetJob(job)).ended(), "");
+  ASSERT_TRUE(store->SetEnded(job, lease, ended).ok());
+  EXPECT_EQ((**store->GetJob(job)).ended(), ended);
+  EXPECT_EQ((**store->GetJob(job)).phase(), v1::EVALUATING);
+  EXPECT_TRUE(store->Progress(job)->ended);
+  v1::CleanedDesign cleaned;
+  cleaned.set_iteration(5);
+  cleaned.set_min_feature_m(0.003);
+  cleaned.set_design(std::string("\1\0\1", 3));
+  cleaned.set_area_fraction(0.125);
+  cleaned.set_density_ratio(2.5);
+  cleaned.set_solve_status("converged");
+  EXPECT_FALSE(store->SetCleaned(job, "another lease", cleaned).ok());
+  ASSERT_TRUE(store->SetCleaned(job, lease, cleaned).ok());
+  ASSERT_TRUE(store->EndLease(job, lease, v1::SUCCEEDED, "", 102.0).ok());
+  const v1::Job done = **store->GetJob(job);
+  EXPECT_EQ(done.ended(), ended) << "the end stays with the finished job";
+  EXPECT_EQ(done.phase(), v1::JOB_PHASE_UNSPECIFIED);
+  Result<std::optional<v1::CleanedDesign>> back = store->Cleaned(job);
+  ASSERT_TRUE(back.ok() && *back) << back.message();
+  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(**back, cleaned)) << (*back)->DebugString();
 }
 
 TEST(JobStore, LeasesRenewsAndStoresIterationsInOrderForTheHolderOnly) {

@@ -743,5 +743,78 @@ TEST_F(HttpApi, WatchesBeyondTheLimitAreRefusedUntilOneCloses) {
   }, 60));
 }
 
+// Bad specs are refused when they are submitted (400 INVALID_ARGUMENT naming the field and the value),
+// before a job exists: an iteration limit above the server's, a body of 5 m, a scene file without a
+// garment, and a photo sent as the garment's OBJ (its bytes escaped, never raw) or as the scene file.
+TEST_F(HttpApi, BadSpecsAreRefusedAtSubmissionWithMessagesForPeople) {
+  auto cli = Service().Client();
+  const int jobs_before = Parse<v1::ListJobsResponse>(cli.Get("/v1/jobs?pageSize=1000")->body).jobs_size();
+  auto refused = [](const httplib::Result& res, const std::string& message) {
+    ASSERT_TRUE(res);
+    EXPECT_EQ(res->status, 400) << res->body;
+    const nlohmann::json body = nlohmann::json::parse(res->body);
+    EXPECT_EQ(body["error"]["status"], "INVALID_ARGUMENT") << res->body;
+    const std::string text = body["error"]["message"];
+    EXPECT_EQ(text, message);
+    for (const char c : text) EXPECT_FALSE(static_cast<unsigned char>(c) < 0x20) << "a control character in " << text;
+  };
+  refused(cli.Post("/v1/jobs", R"({"builtinScene": "sleeve_on_limb", "optimizer": {"maxIterations": 2001}})", "application/json"),
+          "spec.optimizer.max_iterations: 2001 is above this server's limit of 2000 iterations (--max-iterations)");
+  refused(cli.Post("/v1/jobs", R"({"builtinScene": "knee_flexion", "body": ["height_m=5"]})", "application/json"),
+          "spec.body: body measurement height_m = 5 is outside [1.2, 2.2]");
+  const std::string png("\x89PNG\r\n\x1a\n\0\0\0\rIHDR\0\0\0\x10", 20);
+  const std::string triangle = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nf 1 2 3\n";
+  refused(cli.Post("/v1/jobs", httplib::MultipartFormDataItems{{"scene", R"({"body": {"mesh": "body.obj"}})", "scene.json", "application/json"},
+                                                                {"body.obj", triangle, "body.obj", "text/plain"}}),
+          "spec.scene_files.scene: garment: missing (give garment.rest, or garment.region with body.rest and body.deformed)");
+  refused(cli.Post("/v1/jobs", httplib::MultipartFormDataItems{{"scene", R"({"garment": {"rest": "garment.obj"}})", "scene.json", "application/json"},
+                                                                {"garment.obj", png, "garment.obj", "application/octet-stream"}}),
+          R"(spec.scene_files.scene.garment.rest: garment.obj is not an OBJ or PLY mesh (line 1: "\x89PNG" is not text))");
+  refused(cli.Post("/v1/jobs", httplib::MultipartFormDataItems{{"scene", png, "photo.png", "image/png"}}),
+          "part 'scene' (photo.png) is not a JSON scene file: it is not text");
+  EXPECT_EQ(Parse<v1::ListJobsResponse>(cli.Get("/v1/jobs?pageSize=1000")->body).jobs_size(), jobs_before) << "no job was made";
+  // The page checks the iteration limit against the server's before it submits.
+  EXPECT_EQ(Parse<v1::ListScenesResponse>(cli.Get("/v1/scenes")->body).max_iterations(), 2000);
+}
+
+// A job that stops at its iteration limit short of the budget says so (Job.ended, kept once it has
+// ended), and the cut files of its last design report the cleaned design simulated as `kgd export`
+// does on the job's design file: the same density ratio, bit for bit, and the same solve status.
+TEST_F(HttpApi, AJobSaysHowItEndedAndItsLastDesignsCutFilesReportTheCleanedDesignAsKgdExportDoes) {
+  const v1::Job job = Create(SleeveJob(3, "ended"));
+  const std::string id = std::to_string(job.id());
+  ASSERT_TRUE(WaitFor([&] { return Ended(id); }, 300)) << Service().Log();
+  const v1::Job done = Get(id);
+  ASSERT_EQ(done.state(), v1::SUCCEEDED) << done.failure();
+  ASSERT_EQ(done.iterations(), 4);
+  char area[32];
+  std::snprintf(area, sizeof area, "%.1f %%", 100 * done.last().area_fraction());
+  ASSERT_GT(done.last().area_fraction(), 0.3);
+  EXPECT_EQ(done.ended(), "stopped at the iteration limit (3) at " + std::string(area) + " of the garment, above the budget of 30 %");
+  EXPECT_EQ(done.phase(), v1::JOB_PHASE_UNSPECIFIED);
+
+  auto res = Service().Client().Get("/v1/jobs/" + id + "/iterations/-1/cut/report.json");
+  ASSERT_TRUE(res && res->status == 200) << (res ? res->body : "no response");
+  const nlohmann::json service = nlohmann::json::parse(res->body);
+  const std::string out = Service().dir() + "/export-" + id;
+  const auto exported = cli_test::Kgd("export " + done.data_file() + " --iteration 3 --out " + out);
+  ASSERT_EQ(exported.exit_code, 0) << exported.output;
+  std::ifstream in(out + "/report.json");
+  const nlohmann::json local = nlohmann::json::parse(in);
+  EXPECT_EQ(service["iteration"], 3);
+  EXPECT_NE(service["cleaned"]["solve_status"], "not simulated");
+  EXPECT_EQ(service["cleaned"]["solve_status"], local["cleaned"]["solve_status"]);
+  // The cleaned design (a few faces fewer) resists nearly as the stored one: the sleeve, a garment of its
+  // own, keeps its attachments where the job had them.
+  EXPECT_NEAR(service["cleaned"]["density_ratio"].get<double>(), service["density_ratio"].get<double>(), 0.05 * service["density_ratio"].get<double>())
+      << res->body;
+  EXPECT_EQ(service["cleaned"]["density_ratio"].get<double>(), local["cleaned"]["density_ratio"].get<double>()) << res->body;
+  EXPECT_EQ(service["cleaned"]["area_fraction"].get<double>(), local["cleaned"]["area_fraction"].get<double>());
+  // An earlier iteration's report is still made by geometry alone.
+  auto first = Service().Client().Get("/v1/jobs/" + id + "/iterations/1/cut/report.json");
+  ASSERT_TRUE(first && first->status == 200);
+  EXPECT_EQ(nlohmann::json::parse(first->body)["cleaned"]["solve_status"], "not simulated");
+}
+
 }  // namespace
 }  // namespace kgd

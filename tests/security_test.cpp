@@ -604,7 +604,14 @@ TEST(SecurityLimits, EachLimitIsHitAndNamed) {
     EXPECT_EQ(status, "RESOURCE_EXHAUSTED") << message;
     EXPECT_NE(message.find(named), std::string::npos) << "the message names " << named << ": " << message;
   };
-  expect_limit(http.Post("/v1/jobs", Job(51), "application/json"), "--max-iterations");
+  // An iteration limit above the server's is a bad argument (400), naming the flag.
+  {
+    const auto res = http.Post("/v1/jobs", Job(51), "application/json");
+    const auto [status, message] = Outcome(res);
+    EXPECT_EQ(status, "INVALID_ARGUMENT") << message;
+    EXPECT_EQ(res ? res->status : 0, 400);
+    EXPECT_NE(message.find("51 is above this server's limit of 50 iterations (--max-iterations)"), std::string::npos) << message;
+  }
   // An uploaded scene with a mesh of 12 vertices; then one with three motion frames.
   std::string obj;
   for (int i = 0; i < 12; ++i) obj += "v " + std::to_string(i) + " 0 0\n";

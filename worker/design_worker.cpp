@@ -13,10 +13,12 @@
 #include <vector>
 
 #include "job/design_job.h"
+#include "job/fabrication_export.h"
 #include "kgd/v1/kgd.grpc.pb.h"
 #include "proto/job_spec.h"
 #include "proto/records.h"
 #include "store/design_file.h"
+#include "worker/machine_speed.h"
 
 namespace kgd::worker {
 namespace {
@@ -27,6 +29,32 @@ std::string DefaultName() {
   return std::string(host) + ":" + std::to_string(getpid());
 }
 
+std::string Percent(double fraction) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f %%", 100 * fraction);
+  return buf;
+}
+
+// How a design loop that ran `history` ended, for people (kgd.v1.Job.ended): DescribeBesoEnd's reason
+// with where the last design stands against the budget.
+std::string EndSentence(const DesignJob& job, const std::vector<BesoIteration>& history) {
+  const BesoSettings& s = job.settings();
+  const BesoEnd end = BesoEndOf(history, s, job.header.rest_area_m2.sum());
+  const std::string why = DescribeBesoEnd(end, history, s);
+  if (end == BesoEnd::kRunning || end == BesoEnd::kNothingToResist) return why;
+  const BesoIteration& last = history.back();
+  char budget[32];
+  std::snprintf(budget, sizeof budget, "%g %%", 100 * s.budget);
+  // DescribeBesoEnd's note on a pressure limit says where the design stands itself.
+  const bool noted = why.find(':') != std::string::npos || why.find(" at ") != std::string::npos;
+  if (end == BesoEnd::kConverged)
+    return noted ? why : "converged at the budget: " + Percent(last.area_fraction) + " of the garment reinforced (budget " + budget + ")";
+  const std::string stopped = "stopped at the iteration limit (" + std::to_string(s.max_iterations) + ")";
+  if (noted) return "stopped at the " + why;
+  return stopped + " at " + Percent(last.area_fraction) + " of the garment, " +
+         (last.area_fraction > s.budget * (1 + 1e-9) ? "above the budget of " : "within the budget of ") + budget;
+}
+
 }  // namespace
 
 struct DesignWorker::Impl {
@@ -35,6 +63,9 @@ struct DesignWorker::Impl {
   std::unique_ptr<v1::WorkerService::Stub> stub;
   std::atomic<bool> stop{false};
   std::vector<std::thread> slots;
+  // This machine's speed, known before the first lease (worker/machine_speed.h); none when it failed.
+  std::once_flag speed_once;
+  std::optional<v1::MachineSpeed> speed;
 
   void Log(const std::string& line) {
     if (!options.quiet) std::fprintf(stderr, "kgd-worker %s: %s\n", options.name.c_str(), line.c_str());
@@ -42,11 +73,26 @@ struct DesignWorker::Impl {
 
   void Slot(int index) {
     const std::string name = options.jobs > 1 ? options.name + "/" + std::to_string(index) : options.name;
+    // Before the first job: every slot waits for the one measurement.
+    if (options.measure_speed)
+      std::call_once(speed_once, [&] {
+        Result<v1::MachineSpeed> s = MachineSpeedOfThisMachine();
+        if (s.ok()) {
+          speed = *s;
+          char factor[32];
+          std::snprintf(factor, sizeof factor, "%.3g", s->measured_s() / s->predicted_s());
+          Log(std::string("speed: ") + factor + " x the cost model's reference machine (" + s->what() + ")");
+        } else {
+          Log("speed not measured: " + s.message());
+        }
+      });
+    bool speed_sent = false;
     double backoff = 0.1;
     while (!stop) {
       v1::LeaseJobRequest req;
       req.set_worker(name);
       req.set_wait_s(2);
+      if (speed && !speed_sent) *req.mutable_speed() = *speed;
       v1::LeaseJobResponse lease;
       grpc::ClientContext ctx;
       Authorize(options.connection, &ctx);
@@ -59,6 +105,7 @@ struct DesignWorker::Impl {
         continue;
       }
       backoff = 0.1;
+      speed_sent = true;
       if (lease.leased()) RunLeasedJob(lease);
     }
   }
@@ -115,10 +162,12 @@ struct DesignWorker::Impl {
     std::string failure;
     Result<std::vector<BesoIteration>> run = Status::Error("not run");
     Result<DesignJob> job = Status::Error("");
+    SolverSettings scene_solver;  // the scene's own, before the job's overrides: what `kgd export` simulates with
     {
       Result<SceneSpec> scene = SceneOfJob(lease.spec());
       if (!scene.ok()) failure = scene.message();
       else {
+        scene_solver = scene->solver;
         const std::vector<std::string> body(lease.spec().body().begin(), lease.spec().body().end());
         job = NewDesignJob(std::move(scene).value(), lease.spec().optimizer(), JobSceneName(lease.spec()), JoinWords(body));
         if (!job.ok()) failure = job.message();
@@ -160,6 +209,40 @@ struct DesignWorker::Impl {
       if (keep_going()) {
         run = RunDesignJob(*job, on_iteration);
         if (!run.ok()) failure = run.message();
+      }
+      // How the design loop ended, said before the evaluation starts (the job's phase turns to EVALUATING).
+      if (failure.empty() && keep_going() && last) {
+        std::vector<BesoIteration> history;
+        for (const BesoIteration& it : job->history) history.push_back(MetricsOnly(it));
+        for (const BesoIteration& it : *run) history.push_back(MetricsOnly(it));
+        if (!history.empty() && BesoFinished(history, job->settings(), job->header.rest_area_m2.sum())) {
+          v1::WorkerMessage m;
+          m.set_ended(EndSentence(*job, history));
+          if (!send(m)) lost = true;
+        }
+      }
+      // The last design cleaned for manufacture and simulated again, as `kgd export` does: the service's
+      // cut files of it report its figures. An extra, as the evaluation below.
+      if (failure.empty() && keep_going() && first && last) {
+        SceneSpec scene = job->scene;
+        scene.solver = scene_solver;
+        scene.design = last->design;
+        StartFromStoredEquilibrium(&scene, last->positions);
+        const CleaningOptions cleaning;
+        Result<CleanedSimulation> cleaned = SimulateCleanedDesign(scene, first->reinforced_density_J_per_m2, cleaning);
+        if (cleaned.ok()) {
+          v1::WorkerMessage m;
+          v1::CleanedDesign* c = m.mutable_cleaned();
+          c->set_iteration(last->iteration);
+          c->set_min_feature_m(cleaning.min_feature_m);
+          c->set_design(std::string(cleaned->cleaned.design.begin(), cleaned->cleaned.design.end()));
+          c->set_area_fraction(cleaned->area_fraction);
+          c->set_density_ratio(cleaned->density_ratio);
+          c->set_solve_status(cleaned->solve_status);
+          if (!send(m)) lost = true;
+        } else {
+          Log("job " + std::to_string(lease.job_id()) + ": the cleaned design not simulated: " + cleaned.message());
+        }
       }
       // The finished design over the motion and beside the baselines: a failure here is reported in the
       // log and costs the job nothing (the evaluation is an extra, the design is done).

@@ -21,6 +21,8 @@ struct WorkerOptions {
   int jobs = 1;                           // jobs run at once (threads)
   std::string name;                       // shown by the server; default host:pid
   bool quiet = false;
+  // Measure this machine's speed before the first job and send it to the server (worker/machine_speed.h).
+  bool measure_speed = true;
 };
 
 class DesignWorker {

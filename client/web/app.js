@@ -3,10 +3,11 @@
 import * as api from './api.js';
 import { GarmentView } from './view3d.js';
 import { RunCharts } from './charts.js';
-import { EnergyScale } from './colour_scale.js';
-import * as viewer from './viewer_controls.js';
+import * as jobStatus from './job_status.js';
 import { Compare } from './compare.js';
 import { CutPanel, CUT_FILES } from './cut_files.js';
+import { EnergyScale } from './colour_scale.js';
+import * as viewer from './viewer_controls.js';
 
 const $ = (id) => document.getElementById(id);
 const state = {
@@ -56,6 +57,8 @@ async function loadScenes() {
   const r = await api.scenes();
   state.scenes = r.scenes || [];
   state.machineFactorJobs = r.machineFactorJobs || 0;
+  state.maxIterations = r.maxIterations || 0;  // the server's iteration limit (0: none)
+  if (state.maxIterations) $('max-iterations').max = state.maxIterations;
   state.measurements = r.bodyMeasurements || [];
   const sel = $('scene');
   sel.innerHTML = '';
@@ -144,12 +147,17 @@ function clearErrors() {
 // Shows a message next to the field it names (server messages start with the field, e.g.
 // "spec.optimizer.budget: 1.5 is outside (0, 1]").
 function showError(message) {
+  message = jobStatus.readable(message);
   const m = message.toLowerCase();
   const field = m.includes('budget') ? 'budget' : m.includes('max_iterations') || m.includes('maxiterations') ? 'maxIterations'
     : m.includes('max_pressure') || m.includes('maxpressure') ? 'maxPressure'
     : (m.includes('motion_weights') || m.includes('motionweights')) && !$('motions-fields').hidden ? 'motions'
+    : m.startsWith('spec.body:') && !$('builtin-fields').hidden ? 'body'
     : m.includes('scene') || m.includes('body') || m.includes('part ') ? 'scene' : 'form';
+  if (field === 'body') $('body-details').open = true;
   document.querySelector(`.error[data-for="${field}"]`).textContent = message;
+  const measurement = /body measurement (\w+)/.exec(message)?.[1];
+  if (field === 'body' && measurement) $(`body-${measurement}`)?.classList.add('invalid');
   const motion = /motion '([^']*)'/.exec(message)?.[1];
   const input = { budget: $('budget'), maxIterations: $('max-iterations'), maxPressure: $('max-pressure'),
     motions: [...document.querySelectorAll('#motion-list input')].find((i) => i.dataset.motion === motion) }[field];
@@ -175,9 +183,9 @@ async function submit(ev) {
     spec.optimizer.maxPressurePa = 1e3 * kPa;
   }
   if (iters !== '') {
-    const n = Number(iters);
-    if (!Number.isInteger(n) || n < 1) return showError(`maxIterations: ${iters} is not a whole number >= 1`);
-    spec.optimizer.maxIterations = n;
+    const problem = jobStatus.checkIterations(iters, state.maxIterations);
+    if (problem) return showError(problem);
+    spec.optimizer.maxIterations = Number(iters);
   }
   try {
     let job;
@@ -186,11 +194,15 @@ async function submit(ev) {
       if (error) return showError(error);
       if (Object.keys(weights).length) spec.optimizer.motionWeights = weights;
       spec.builtinScene = $('scene').value;
+      const body = jobStatus.checkBody(document.querySelectorAll('#body-fields input'), state.measurements);
+      if (body) return showError(body.message);
       spec.body = [...document.querySelectorAll('#body-fields input')].filter((i) => i.value !== '').map((i) => `${i.dataset.measurement}=${i.value}`);
       job = await api.createJob(spec);
     } else {
       const file = $('scene-file').files[0];
       if (!file) return showError('scene: choose a scene file (JSON)');
+      const problem = await jobStatus.checkSceneUpload(file, $('mesh-files').files);
+      if (problem) return showError(problem);
       const form = new FormData();
       form.append('scene', file, file.name);
       for (const f of $('mesh-files').files) form.append(f.name, f, f.name);
@@ -207,20 +219,8 @@ async function submit(ev) {
 
 // -- Jobs list -----------------------------------------------------------------------------------------
 
-function progressOf(job) {
-  const m = job.last;
-  if (!m || !job.iterations) return { text: job.state === 'QUEUED' ? 'waiting' : '', fraction: 0 };
-  const budget = budgetOf(job.spec);
-  const area = m.areaFraction ?? 1;
-  // ER (default 1.5 %) of the area per iteration down to the budget, then the convergence window.
-  const er = job.spec?.optimizer?.evolutionaryRatio || 0.015, window = job.spec?.optimizer?.convergeWindow || 5;
-  const left = area > budget + 1e-9 ? Math.ceil(Math.log(budget / area) / Math.log(1 - er)) + window : window;
-  const total = job.iterations + left;
-  const perIt = (m.totalS ?? 0);
-  const done = job.state !== 'RUNNING' && job.state !== 'QUEUED';
-  const eta = done ? '' : ` · ~${Math.round(left * perIt)} s left`;
-  return { text: `iteration ${job.iterations - 1}, ratio ${(m.densityRatio ?? 0).toFixed(2)}${eta}`, fraction: done ? 1 : job.iterations / total };
-}
+// Its progress, or its phase after the last iteration (job_status.js).
+function progressOf(job) { return jobStatus.progressOf(job, budgetOf(job.spec)); }
 
 function renderJobs() {
   const body = document.querySelector('#jobs tbody');
@@ -268,9 +268,11 @@ async function refreshJobs() {
 
 // -- One job: live view and explorer -------------------------------------------------------------------
 
-// A failed job's reason where its iterations' figures go (a job with none would show nothing).
+// A failed job's reason where its iterations' figures go (a job with none would show nothing), and above
+// the 3D view with how a job ended or what it is doing after its last iteration.
 function showFailure(job) {
-  $('metrics').textContent = job?.state === 'FAILED' ? `failed: ${job.failure || 'no reason given'}` : '';
+  $('metrics').textContent = job?.state === 'FAILED' ? `failed: ${jobStatus.readable(job.failure || 'no reason given')}` : '';
+  jobStatus.showJobNote($('job-note'), job);
 }
 
 // A job of several motions: each motion's figures at its last stored iteration (the final design's

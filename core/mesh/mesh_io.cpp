@@ -25,6 +25,50 @@ bool EndsWith(const std::string& s, const std::string& suffix) {
 
 std::string Where(const std::string& path, size_t line) { return path + ":" + std::to_string(line) + ": "; }
 
+// Length of the UTF-8 sequence starting at text[i] (0: not one).
+size_t Utf8Length(std::string_view text, size_t i) {
+  const unsigned char c = static_cast<unsigned char>(text[i]);
+  const size_t n = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 0;
+  if (n == 0 || i + n > text.size()) return 0;
+  for (size_t k = 1; k < n; ++k)
+    if ((static_cast<unsigned char>(text[i + k]) >> 6) != 0x2) return 0;
+  return n;
+}
+
+// A line of a file as messages quote it: at most 40 bytes, bytes that are not printable text as \xNN.
+std::string Quoted(std::string_view line) {
+  std::string out;
+  const size_t n = std::min<size_t>(line.size(), 40);
+  for (size_t i = 0; i < n;) {
+    const unsigned char c = static_cast<unsigned char>(line[i]);
+    const size_t len = Utf8Length(line, i);
+    if (c >= 0x20 && c != 0x7f && len == 1) {
+      out += c == '"' || c == '\\' ? std::string("\\") + static_cast<char>(c) : std::string(1, static_cast<char>(c));
+      ++i;
+    } else if (len > 1) {
+      out.append(line.substr(i, len));
+      i += len;
+    } else {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "\\x%02X", c);
+      out += hex;
+      ++i;
+    }
+  }
+  return out + (line.size() > n ? "..." : "");
+}
+
+// True when `line` is text: UTF-8 without control characters (tabs and form feeds aside).
+bool IsTextLine(std::string_view line) {
+  for (size_t i = 0; i < line.size();) {
+    const unsigned char c = static_cast<unsigned char>(line[i]);
+    const size_t len = Utf8Length(line, i);
+    if (len == 0 || (c < 0x20 && c != '\t' && c != '\r' && c != '\f' && c != '\v') || c == 0x7f) return false;
+    i += len;
+  }
+  return true;
+}
+
 bool ParseDouble(std::string_view token, double* out) {
   const char* begin = token.data();
   const char* end = token.data() + token.size();
@@ -88,10 +132,10 @@ Result<TriMesh> ParseObj(std::string_view text, const std::string& path) {
       for (int k = 0; k < 3; ++k) {
         if (k + 1 >= nw || !ParseDouble(w[k + 1], &p[k]))
           return Status::Error(Where(path, line_no) + "vertex " + std::to_string(verts.size()) + ": expected three numbers, got '" +
-                               std::string(line) + "'");
+                               Quoted(line) + "'");
         if (!std::isfinite(p[k]))
           return Status::Error(Where(path, line_no) + "vertex " + std::to_string(verts.size()) + " has a non-finite coordinate '" +
-                               std::string(w[k + 1]) + "'");
+                               Quoted(w[k + 1]) + "'");
       }
       verts.push_back(p);
     } else if (w[0] == "f") {
@@ -100,7 +144,7 @@ Result<TriMesh> ParseObj(std::string_view text, const std::string& path) {
         const std::string_view first = w[k].substr(0, w[k].find('/'));
         long idx = 0;
         if (!ParseInt(first, &idx) || idx == 0)
-          return Status::Error(Where(path, line_no) + "face " + std::to_string(tris.size()) + ": bad vertex index '" + std::string(w[k]) + "'");
+          return Status::Error(Where(path, line_no) + "face " + std::to_string(tris.size()) + ": bad vertex index '" + Quoted(w[k]) + "'");
         // OBJ indices are 1-based; negative ones count back from the last vertex read so far.
         const long zero_based = idx > 0 ? idx - 1 : static_cast<long>(verts.size()) + idx;
         if (zero_based < 0 || zero_based > INT32_MAX)
@@ -209,13 +253,13 @@ Result<TriMesh> ParsePly(std::string_view content, const std::string& path) {
       ls >> fmt;
       if (fmt == "ascii") binary = false;
       else if (fmt == "binary_little_endian") binary = true;
-      else return Status::Error(Where(path, line_no) + "unsupported PLY format '" + fmt + "'");
+      else return Status::Error(Where(path, line_no) + "unsupported PLY format '" + Quoted(fmt) + "'");
     } else if (kw == "element") {
       PlyElement e;
       std::string count, extra;
       ls >> e.name >> count;
       if (!ls || !ParseInt(count, &e.count) || e.count < 0 || (ls >> extra))
-        return Status::Error(Where(path, line_no) + "bad element line '" + line + "'");
+        return Status::Error(Where(path, line_no) + "bad element line '" + Quoted(line) + "'");
       // Every element takes at least a byte: a count beyond the file's size is a corrupt header, and
       // would otherwise be allocated before the data runs out.
       if (e.count > file_bytes)
@@ -238,7 +282,7 @@ Result<TriMesh> ParsePly(std::string_view content, const std::string& path) {
         ls >> p.name;
       }
       if (p.type == PlyType::kInvalid || (p.is_list && p.count_type == PlyType::kInvalid))
-        return Status::Error(Where(path, line_no) + "unknown property type in '" + line + "'");
+        return Status::Error(Where(path, line_no) + "unknown property type in '" + Quoted(line) + "'");
       elements.back().props.push_back(p);
     } else if (kw == "end_header") {
       header_done = true;
@@ -341,7 +385,48 @@ Result<bool> IsObjName(const std::string& name) {
 
 }  // namespace
 
+Status CheckMeshBytes(std::string_view content, const std::string& name) {
+  Result<bool> obj = IsObjName(name);
+  if (!obj.ok()) return obj.status();
+  auto refused = [&](size_t line_no, std::string_view line, const std::string& what) {
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    return Status::Error(name + " is not an OBJ or PLY mesh (line " + std::to_string(line_no) + ": \"" + Quoted(line) + "\" " + what + ")");
+  };
+  const std::string_view first = content.substr(0, content.find('\n'));
+  if (!*obj) {
+    if (first != "ply" && first != "ply\r") return refused(1, first, IsTextLine(first) ? "is not \"ply\", a PLY file's first line" : "is not text");
+    return Status::Ok();
+  }
+  // The OBJ statements kgd reads or skips; the first line of any other text says what the file is.
+  static const char* const kStatements[] = {"v", "vt", "vn", "vp", "f", "l", "p", "o", "g", "s", "usemtl", "mtllib"};
+  const std::string_view head = content.substr(0, 4096);
+  bool statement_seen = false;
+  size_t line_no = 0;
+  for (size_t pos = 0; pos < head.size();) {
+    size_t eol = head.find('\n', pos);
+    // A last line cut at 4096 bytes may end inside a character: it is checked up to its last whole one.
+    const bool cut = eol == std::string::npos && head.size() < content.size();
+    if (eol == std::string::npos) eol = head.size();
+    std::string_view line = head.substr(pos, eol - pos);
+    pos = eol + 1;
+    ++line_no;
+    if (line_no == 1 && line.substr(0, 3) == "\xEF\xBB\xBF") line.remove_prefix(3);  // a byte-order mark
+    if (cut) while (!line.empty() && (static_cast<unsigned char>(line.back()) & 0xC0) == 0x80) line.remove_suffix(1);
+    if (cut && !line.empty() && static_cast<unsigned char>(line.back()) >= 0xC0) line.remove_suffix(1);
+    if (!IsTextLine(line)) return refused(line_no, line, "is not text");
+    if (statement_seen) continue;
+    std::vector<std::string_view> words;
+    if (SplitLine(line, &words) == 0 || words[0][0] == '#') continue;
+    bool known = false;
+    for (const char* k : kStatements) known |= words[0] == k;
+    if (!known) return refused(line_no, line, "is not an OBJ statement (v, f, vn, vt, o, g, s, usemtl, mtllib, # ...)");
+    statement_seen = true;
+  }
+  return Status::Ok();
+}
+
 Result<TriMesh> ParseMesh(std::string_view content, const std::string& name) {
+  KGD_RETURN_IF_ERROR(CheckMeshBytes(content, name));
   Result<bool> obj = IsObjName(name);
   if (!obj.ok()) return obj.status();
   return *obj ? ParseObj(content, name) : ParsePly(content, name);
@@ -453,7 +538,7 @@ Result<std::vector<int>> ParseIndexList(std::string_view content, const std::str
     const auto last = line.find_last_not_of(" \t");
     long v;
     if (!ParseInt(line.substr(first, last - first + 1), &v) || v < INT32_MIN || v > INT32_MAX)
-      return Status::Error(Where(path, line_no) + "expected one integer, got '" + line + "'");
+      return Status::Error(Where(path, line_no) + "expected one integer, got '" + Quoted(line) + "'");
     out.push_back(static_cast<int>(v));
   }
   return out;

@@ -21,8 +21,16 @@ namespace kgd {
 Result<TriMesh> ReadMesh(const std::string& path);
 
 // The same from a file's bytes in memory (e.g. a file sent with a job); `name`, a file name, chooses
-// the format by its extension and prefixes the messages.
+// the format by its extension and prefixes the messages. CheckMeshBytes first.
 Result<TriMesh> ParseMesh(std::string_view content, const std::string& name);
+
+// Whether a file's bytes can be the mesh its name says (.obj or .ply), from its first 4 KB: a PLY file's
+// first line is "ply"; an OBJ file is text (UTF-8 without control characters) whose first statement is
+// one of OBJ's (v, f, vn, vt, o, g, s, usemtl, mtllib; # comments and blank lines aside). The message
+// names the file and quotes the line, escaped and cut to 40 bytes, e.g. `photo.obj is not an OBJ or
+// PLY mesh (line 1: "\x89PNG" is not text)`. The design service checks every mesh sent with a job with
+// it when the job is submitted, before any worker parses it.
+Status CheckMeshBytes(std::string_view content, const std::string& name);
 
 // Per-face scalar attributes written after the vertex indices of each face.
 struct FaceProperty {

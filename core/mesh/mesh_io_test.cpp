@@ -105,6 +105,30 @@ TEST(MeshIo, ErrorsNameFileAndLine) {
   EXPECT_NE(idx.message().find("idx.txt:5: expected one integer"), std::string::npos) << idx.message();
 }
 
+// A file that is not the mesh its name says (a photo saved as .obj) is refused by its first bytes,
+// the message naming the file and quoting the line escaped and cut short, never its raw bytes; the
+// same check runs first in ParseMesh (the design service runs it when a job is submitted).
+TEST(MeshIo, AFileThatIsNotAMeshIsNamedWithItsFirstLineEscaped) {
+  const std::string png("\x89PNG\r\n\x1a\n\0\0\0\rIHDR", 16);
+  EXPECT_EQ(CheckMeshBytes(png, "photo.obj").message(), R"(photo.obj is not an OBJ or PLY mesh (line 1: "\x89PNG" is not text))");
+  EXPECT_EQ(ParseMesh(png, "photo.obj").message(), CheckMeshBytes(png, "photo.obj").message());
+  EXPECT_EQ(CheckMeshBytes(png, "photo.ply").message(), R"(photo.ply is not an OBJ or PLY mesh (line 1: "\x89PNG" is not text))");
+  EXPECT_EQ(CheckMeshBytes("Dear tailor, \"please\" sew this\n", "letter.obj").message(),
+            R"(letter.obj is not an OBJ or PLY mesh (line 1: "Dear tailor, \"please\" sew this" is not an OBJ statement (v, f, vn, vt, o, g, s, usemtl, mtllib, # ...)))");
+  EXPECT_EQ(CheckMeshBytes("v 0 0 0\nv 1 0 0\x01\n", "mixed.obj").message(), R"(mixed.obj is not an OBJ or PLY mesh (line 2: "v 1 0 0\x01" is not text))");
+  EXPECT_EQ(CheckMeshBytes(std::string(100, 'x') + "\n", "long.obj").message(),
+            "long.obj is not an OBJ or PLY mesh (line 1: \"" + std::string(40, 'x') + "...\" is not an OBJ statement (v, f, vn, vt, o, g, s, usemtl, mtllib, # ...))");
+  EXPECT_FALSE(CheckMeshBytes("solid cube\n", "cube.ply").ok());
+  // Meshes pass: comments, blank lines, a byte-order mark, UTF-8 in a comment, CRLF lines, PLY.
+  for (const char* ok : {"# Blender\n\nmtllib a.mtl\no Cube\nv 0 0 0\n", "\xEF\xBB\xBFv 0 0 0\r\nf 1 1 1\r\n", "# gr\xC3\xB6\xC3\x9F" "e\nv 0 0 0\n", ""})
+    EXPECT_TRUE(CheckMeshBytes(ok, "ok.obj").ok()) << CheckMeshBytes(ok, "ok.obj").message();
+  EXPECT_TRUE(CheckMeshBytes("ply\nformat ascii 1.0\n", "ok.ply").ok());
+  EXPECT_TRUE(CheckMeshBytes("ply\r\nformat ascii 1.0\r\n", "ok.ply").ok());
+  // A parser's message quotes a bad line escaped too.
+  EXPECT_EQ(ParseMesh(std::string("v 0 0 \x7f\n"), "del.obj").message(), R"(del.obj is not an OBJ or PLY mesh (line 1: "v 0 0 \x7F" is not text))");
+  EXPECT_EQ(ParseMesh(std::string("v 0 0 z\xC3\xA9ro\n"), "utf.obj").message(), "utf.obj:1: vertex 0: expected three numbers, got 'v 0 0 z\xC3\xA9ro'");
+}
+
 // Corruptions a fuzzer found: each is an error naming the element, not an allocation of the declared
 // size or a cast of NaN to an index.
 TEST(MeshIo, CorruptPlyCountsAndIndicesAreErrors) {

@@ -674,6 +674,17 @@ Status ReadSolver(const Reader& r, const json& doc, SceneSpec* s) {
   return Status::Ok();
 }
 
+// The scene names a garment: a garment mesh of its own (garment.rest) or one cut from the body
+// (garment.region). What CheckSceneHasGarment checks before any file is read.
+Status GarmentGiven(const Reader& r, const json& doc) {
+  if (!doc.is_object() || !doc.contains(sk::Scene::garment))
+    return r.Fail("garment", "missing (give garment.rest, or garment.region with body.rest and body.deformed)");
+  const json& g = doc[sk::Scene::garment];
+  if (g.is_object() && !g.contains(sk::SceneGarment::rest) && !g.contains(sk::SceneGarment::region))
+    return r.Fail("garment.rest", "missing (or give garment.region to cut the garment from the body)");
+  return Status::Ok();
+}
+
 // A scene file's text `text`, named `path`, whose files are in `dir` on disk or in `bundle`.
 Result<SceneSpec> LoadSceneText(const std::string& text, const std::string& path, const fs::path& dir, const SceneBundle* bundle,
                                 std::vector<std::string>* files_read) {
@@ -696,8 +707,7 @@ Result<SceneSpec> LoadSceneText(const std::string& text, const std::string& path
   }
   KGD_RETURN_IF_ERROR(ReadEffects(r, doc, &s));
 
-  if (!doc.contains(sk::Scene::garment))
-    return r.Fail("garment", "missing (give garment.rest, or garment.region with body.rest and body.deformed)");
+  KGD_RETURN_IF_ERROR(GarmentGiven(r, doc));
   const json& g = doc[sk::Scene::garment];
   KGD_RETURN_IF_ERROR(r.CheckKeys(g, "garment", "SceneGarment"));
   const json no_object = json::object();
@@ -773,6 +783,12 @@ Result<SceneSpec> LoadScene(const SceneBundle& bundle, std::vector<std::string>*
   SceneBundle normalized{bundle.name, bundle.scene_json, {}};
   for (const auto& [name, bytes] : bundle.files) normalized.files[fs::path(name).lexically_normal().string()] = bytes;
   return LoadSceneText(std::string(bundle.scene_json), bundle.name, fs::path(), &normalized, files_read);
+}
+
+Status CheckSceneHasGarment(std::string_view scene_json, const std::string& path) {
+  const json doc = json::parse(scene_json, nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded()) return Status::Error(path + ": not valid JSON");
+  return GarmentGiven(Reader(path, fs::path(), nullptr, nullptr), doc);
 }
 
 namespace {

@@ -40,6 +40,11 @@ struct SceneBundle {
 // scene names but the bundle lacks is an error that names it.
 Result<SceneSpec> LoadScene(const SceneBundle& bundle, std::vector<std::string>* files_read = nullptr);
 
+// What a scene needs before any file it names is read: a garment (garment.rest, or garment.region),
+// with LoadScene's message when it has none. The design service checks it when a job is submitted
+// (proto/job_spec.h, ValidateJobSpec), so that a scene without a garment is refused before it queues.
+Status CheckSceneHasGarment(std::string_view scene_json, const std::string& path);
+
 // Writes `spec` as DIR/scene.json plus meshes (OBJ, coordinates exact) and index lists, its motions
 // with their poses (motions/M/deformed.obj, motions/M/frame_NN.obj); creates DIR if needed. A scene
 // whose motions ValidateSceneMotions refuses is refused.
