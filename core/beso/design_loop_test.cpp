@@ -334,6 +334,33 @@ TEST(DesignLoopMotions, AnAllowedMotionOfWeightZeroChangesNothingButIsReported) 
   EXPECT_EQ(c->front().motions[1].density_ratio, 1.0);
 }
 
+// An allowed motion's re-solves stop at a looser tolerance than a resisted one's; its iteration 0 (the
+// fully reinforced reference of its density ratio) and every other motion keep the scene's. The same
+// motion of weight 0, allowed or resisted: the same designs, the allowed one's solves shorter, its
+// figures those of an equilibrium all the same.
+TEST(DesignLoopMotions, AnAllowedMotionIsReSolvedToALooserTolerance) {
+  const SceneSpec allowed = FlexingSleeve({{"flex", MotionRole::kResist, 1.0, 0.8}, {"back", MotionRole::kAllow, 0.0, -0.8}});
+  const SceneSpec resisted = FlexingSleeve({{"flex", MotionRole::kResist, 1.0, 0.8}, {"back", MotionRole::kResist, 0.0, -0.8}});
+  const Result<std::vector<BesoIteration>> a = RunBeso(allowed, Quick(8)), r = RunBeso(resisted, Quick(8));
+  ASSERT_TRUE(a.ok()) << a.message();
+  ASSERT_TRUE(r.ok()) << r.message();
+  ExpectSameRun(*a, *r);
+  ASSERT_EQ(a->front().motions.size(), 2u);
+  EXPECT_EQ(a->front().motions[1].energy_J, r->front().motions[1].energy_J) << "iteration 0 at the scene's tolerance";
+  EXPECT_EQ(a->front().motions[1].solver_iterations, r->front().motions[1].solver_iterations);
+  int newton_allowed = 0, newton_resisted = 0;
+  for (size_t k = 1; k < a->size(); ++k) {
+    SCOPED_TRACE("iteration " + std::to_string(k));
+    const MotionMetrics &ma = (*a)[k].motions[1], &mr = (*r)[k].motions[1];
+    newton_allowed += ma.solver_iterations;
+    newton_resisted += mr.solver_iterations;
+    EXPECT_EQ((*a)[k].motions[0].solver_iterations, (*r)[k].motions[0].solver_iterations);
+    EXPECT_NEAR(ma.energy_J, mr.energy_J, 1e-3 * mr.energy_J);
+    EXPECT_NEAR(ma.reinforced_energy_J, mr.reinforced_energy_J, 0.02 * mr.reinforced_energy_J);
+  }
+  EXPECT_LT(newton_allowed, newton_resisted);
+}
+
 // Allowing a sideways flexion moves the reinforcement out of the strain it puts into the garment:
 // at the same budget the allowed motion's reinforced energy falls well below the resist-only design's,
 // while the resisted motion keeps most of its density ratio.
