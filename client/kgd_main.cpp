@@ -4,6 +4,7 @@
 
 #include "client/body_command.h"
 #include "client/design_command.h"
+#include "client/region_command.h"
 #include "client/service_commands.h"
 #include "client/simulate_command.h"
 #include "client/study_command.h"
@@ -16,6 +17,7 @@ int main(int argc, char** argv) {
   int exit_code = 0;
   kgd::cli::AddSimulateCommands(app, &exit_code);
   kgd::cli::AddBodyCommand(app, &exit_code);
+  kgd::cli::AddRegionCommand(app, &exit_code);
   kgd::cli::AddDesignCommands(app, &exit_code);
   kgd::cli::AddServiceCommands(app, &exit_code);
   kgd::cli::AddStudyCommand(app, &exit_code);
