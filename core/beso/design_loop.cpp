@@ -100,22 +100,6 @@ MotionMetrics MetricsOfMotion(const SceneMotion& motion, const SimulationResult&
   return out;
 }
 
-// The weight of each motion (each body) in an iteration's sensitivities: its own, but for a range of
-// bodies weighed by the worst: w_b exp(-(q_b - q_min) / T) with q_b the body's density ratio in the
-// iteration before (`before`), scaled to the weights' sum (docs/MODEL.md, "Range of bodies").
-std::vector<double> CaseWeights(const SceneSpec& scene, const std::vector<SceneMotion>& motions, const BesoIteration& before) {
-  std::vector<double> w;
-  for (const SceneMotion& m : motions) w.push_back(m.weight);
-  if (scene.bodies.empty() || scene.body_objective != BodyObjective::kWorst || before.motions.size() != motions.size()) return w;
-  double lowest = std::numeric_limits<double>::infinity(), sum = 0, soft = 0;
-  for (size_t k = 0; k < w.size(); ++k)
-    if (w[k] > 0) lowest = std::min(lowest, before.motions[k].density_ratio), sum += w[k];
-  for (size_t k = 0; k < w.size(); ++k)
-    if (w[k] > 0) w[k] *= std::exp(-(before.motions[k].density_ratio - lowest) / kWorstBodyTemperature), soft += w[k];
-  for (double& v : w) v *= sum / soft;
-  return w;
-}
-
 // What a pressure limit did to the last design, for DescribeBesoEnd: "" without a limit, or when it
 // holds and the budget is met.
 std::string PressureLimitNote(const BesoIteration& last, const BesoSettings& settings) {
@@ -135,6 +119,19 @@ std::string PressureLimitNote(const BesoIteration& last, const BesoSettings& set
 }
 
 }  // namespace
+
+std::vector<double> CaseWeights(const SceneSpec& scene, const std::vector<SceneMotion>& motions, const BesoIteration& before) {
+  std::vector<double> w;
+  for (const SceneMotion& m : motions) w.push_back(m.weight);
+  if (scene.bodies.empty() || scene.body_objective != BodyObjective::kWorst || before.motions.size() != motions.size()) return w;
+  double lowest = std::numeric_limits<double>::infinity(), sum = 0, soft = 0;
+  for (size_t k = 0; k < w.size(); ++k)
+    if (w[k] > 0) lowest = std::min(lowest, before.motions[k].density_ratio), sum += w[k];
+  for (size_t k = 0; k < w.size(); ++k)
+    if (w[k] > 0) w[k] *= std::exp(-(before.motions[k].density_ratio - lowest) / kWorstBodyTemperature), soft += w[k];
+  for (double& v : w) v *= sum / soft;
+  return w;
+}
 
 double BesoIteration::*TermTimeMetric(std::string_view term) {
 #define KGD_TERM_TIME_ENTRY(Y, Class, key, sum_place, Type, effect, value, effect_what, time_what) {#key, &BesoIteration::key##_s},

@@ -105,6 +105,12 @@ BesoIteration MetricsOnly(BesoIteration it);
 // ones at weight 0 with settings.resist_only (the figures 0).
 std::vector<MotionMetrics> MotionsOfJob(const SceneSpec& scene, const BesoSettings& settings);
 
+// The weight of each of `motions` (MotionsOf(scene)) in an iteration's sensitivities: its own, but for
+// a range of bodies weighed by the worst (docs/MODEL.md, "Range of bodies") w_b exp(-(q_b - q_min) / T)
+// over the bodies of weight > 0, q_b the body's density ratio in `before` (the iteration whose
+// equilibria rank the next design), T = kWorstBodyTemperature, scaled to the weights' sum.
+std::vector<double> CaseWeights(const SceneSpec& scene, const std::vector<SceneMotion>& motions, const BesoIteration& before);
+
 // Runs BESO on `scene` (its design is ignored: the loop starts fully reinforced). `on_iteration`
 // (optional) sees every iteration as it lands; returning false stops the run. `resume` (optional):
 // records of an earlier run of the same scene and settings (iterations 0..k, complete for the last);

@@ -454,6 +454,42 @@ TEST(DesignLoopBodies, EveryBodyIsSimulatedOnItsOwnGarmentAndReportedByName) {
   EXPECT_GT(b->back().motions[1].reinforced_energy_J, 0.0) << "a body of weight 0 is simulated";
 }
 
+// Each body's weight in an iteration's sensitivities: with `mean` the scene's weights; with `worst` the
+// body of the lowest density ratio the most, the others by exp(-(q_b - q_min) / T), scaled to the
+// weights' sum; a body of weight 0 stays out, and equal ratios weigh as the mean does.
+TEST(DesignLoopBodies, TheWorstObjectiveWeighsTheWorstBodyMost) {
+  SceneSpec scene = Sleeve({{"M", 0.04, 1.0}, {"S", 0.036, 1.0}, {"L", 0.044, 1.0}}, BodyObjective::kWorst);
+  const std::vector<SceneMotion> motions = MotionsOf(scene);
+  BesoIteration before;
+  before.iteration = 10;
+  for (const SceneMotion& m : motions) before.motions.push_back({m.name, m.role, m.weight});
+  const double q[] = {2.0, 1.9, 2.1};
+  for (size_t k = 0; k < 3; ++k) before.motions[k].density_ratio = q[k];
+  std::vector<double> w = CaseWeights(scene, motions, before);
+  ASSERT_EQ(w.size(), 3u);
+  EXPECT_NEAR(w[0] + w[1] + w[2], 3.0, 1e-12);
+  EXPECT_GT(w[1], w[0]);
+  EXPECT_GT(w[0], w[2]);
+  EXPECT_NEAR(w[0] / w[1], std::exp(-0.1 / kWorstBodyTemperature), 1e-12);
+  EXPECT_NEAR(w[2] / w[1], std::exp(-0.2 / kWorstBodyTemperature), 1e-12);
+
+  scene.body_objective = BodyObjective::kMean;
+  EXPECT_EQ(CaseWeights(scene, motions, before), (std::vector<double>{1.0, 1.0, 1.0}));
+
+  scene.body_objective = BodyObjective::kWorst;
+  for (size_t k = 0; k < 3; ++k) before.motions[k].density_ratio = 1.0;
+  w = CaseWeights(scene, motions, before);
+  for (double v : w) EXPECT_NEAR(v, 1.0, 1e-12) << "equal ratios weigh as the mean";
+
+  scene.bodies[1].weight = 0;
+  const std::vector<SceneMotion> without_s = MotionsOf(scene);
+  for (size_t k = 0; k < 3; ++k) before.motions[k].density_ratio = q[k];
+  w = CaseWeights(scene, without_s, before);
+  EXPECT_EQ(w[1], 0.0) << "a body of weight 0 stays out, however low its ratio";
+  EXPECT_NEAR(w[0] + w[2], 2.0, 1e-12);
+  EXPECT_GT(w[0], w[2]);
+}
+
 // Bad bodies are refused before any simulation, the message naming the body.
 TEST(DesignLoopBodies, BadBodiesAreRefusedByName) {
   const SceneSpec good = Sleeve({{"M", 0.04, 1.0}, {"L", 0.044, 1.0}}, BodyObjective::kMean);
