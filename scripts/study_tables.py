@@ -216,26 +216,40 @@ def median_of(its, key, motion=None):
     return statistics.median(vs)
 
 
+def mean_of(its, key, motion=None):
+    """Mean over iterations 1..N (iteration 0 is the cold solve) of a field, or of one motion's."""
+    vs = [(it["motions"][motion] if motion is not None else it)[key] for it in its if it["iteration"] > 0]
+    if not vs:
+        raise Missing("no iteration after iteration 0")
+    return statistics.mean(vs)
+
+
 def motions_cost(out):
     rows = ["Each job of K motions beside the single-motion job on the same garment (the same faces and body; the motions "
-            "differ), medians over the iterations after iteration 0 of `kgd design`'s JSON lines: the whole iteration "
-            "(`total_s`), its solves (`simulation_s`, every motion's) and each motion's solve; the rest is the iteration "
-            "outside the solves (sensitivities of every motion in the objective, filter, update), what would grow were "
-            "anything rebuilt per iteration. Iteration 0 is the cold solve from the body.", "",
-            "| job | motions | faces | iterations | per iteration (median) | against one motion's | solves | the rest | "
-            "each motion's solve | iteration 0 |", "|---|---|---|---|---|---|---|---|---|---|"]
+            "differ), from `kgd design`'s JSON lines over the iterations after iteration 0 (the cold solve from the body): "
+            "the whole iteration (`total_s`; mean, and median in brackets), the solve of the scene's own motion (the first: "
+            "one motion's solve, `motions[0].simulation_s`), the iteration over it (K when every motion's solve costs the "
+            "own one's and nothing else grows), the rest outside the solves (sensitivities of every motion in the "
+            "objective, filter, update: what would grow were anything rebuilt per iteration), and each motion's solve "
+            "(mean time, and mean Newton iterations per BESO iteration: over the whole run / over iterations 1-30).", "",
+            "| job | K | faces | iterations | per iteration | against the single-motion job | own motion's solve | "
+            "iteration / own solve | the rest | each motion: solve, Newton iterations (all / 1-30) | iteration 0 |",
+            "|---|---|---|---|---|---|---|---|---|---|---|"]
     for single, several in MOTION_PAIRS:
         one = None
         for run in (single, several):
             its, done = design_run(out, run)
-            per = median_of(its, "total_s")
-            solves = median_of(its, "simulation_s")
+            per, per_median = mean_of(its, "total_s"), median_of(its, "total_s")
+            own = mean_of(its, "simulation_s", 0)
+            rest = per - mean_of(its, "simulation_s")
             k = len(its[-1]["motions"])
-            each = ", ".join(f"{m['name']} {median_of(its, 'simulation_s', i):.3f} s" for i, m in enumerate(its[-1]["motions"]))
-            against = "" if one is None else f"**{per / one:.2f}x** (K = {k})"
+            early = [it for it in its if 0 < it["iteration"] <= 30]
+            each = "; ".join(f"{m['name']} {mean_of(its, 'simulation_s', i):.3f} s, {mean_of(its, 'solver_iterations', i):.1f} / "
+                             f"{mean_of(early, 'solver_iterations', i):.1f}" for i, m in enumerate(its[-1]["motions"]))
+            against = "" if one is None else f"{per / one:.2f}x"
             one = per if one is None else one
-            rows.append(f"| `{command(run)}` | {k} | {faces(out, run):,} | {done['iterations']} | {per:.3f} s | {against} | "
-                        f"{solves:.3f} s | {per - solves:.4f} s | {each} | {its[0]['total_s']:.2f} s |")
+            rows.append(f"| `{command(run)}` | {k} | {faces(out, run):,} | {done['iterations']} | {per:.3f} s ({per_median:.3f} s) | "
+                        f"{against} | {own:.3f} s | **{per / own:.2f}** | {rest:.4f} s | {each} | {its[0]['total_s']:.2f} s |")
     return rows
 
 

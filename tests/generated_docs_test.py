@@ -448,12 +448,12 @@ def write_run(out, run, its, motions, faces=13936, wall_s=None):
     """A study run's files as scripts/design_study.sh leaves them: RUN.jsonl (`kgd design`'s text line, its
     iteration lines, the done line), RUN.table.txt's header line (`kgd designs`) and RUN.wall_s.
     its: total_s per iteration (iteration 0 first); motions: (name, role, [simulation_s per iteration],
-    final density ratio, final reinforced energy J)."""
+    final density ratio, final reinforced energy J); a motion's Newton iterations are 100 per second of its solve."""
     with open(os.path.join(out, f"{run}.jsonl"), "w") as f:
         f.write(f"design {run} -> {run}.h5 (budget 0.15, standard, 8 frames): predicted about 9 s\n")
         for k, total in enumerate(its):
-            ms = [{"name": n, "role": r, "weight": 1.0, "density_ratio": 1.0, "reinforced_energy_J": 0.3, "simulation_s": sim[k]}
-                  for n, r, sim, _, _ in motions]
+            ms = [{"name": n, "role": r, "weight": 1.0, "density_ratio": 1.0, "reinforced_energy_J": 0.3, "simulation_s": sim[k],
+                   "solver_iterations": round(100 * sim[k])} for n, r, sim, _, _ in motions]
             f.write(json.dumps({"iteration": k, "total_s": total, "simulation_s": sum(m["simulation_s"] for m in ms), "motions": ms}) + "\n")
         done = [{"name": n, "role": r, "weight": 0.0 if "resist-only" in run and r == "allow" else 1.0, "density_ratio": d,
                  "reinforced_energy_J": e, "simulation_s": sim[-1]} for n, r, sim, d, e in motions]
@@ -521,10 +521,12 @@ class StudyRoleTables(unittest.TestCase):
     def test_an_iteration_of_k_motions_against_one(self):
         rows = [r for r in self.st.motions_cost(self.out) if r.startswith("|")]
         self.assertEqual(len(rows), 2 + 6)
-        # Medians of iterations 1..N: 0.25 s (one motion), 0.6 s (two): 2.40x.
-        self.assertEqual(rows[2], "| `kgd design arm_flexion` | 1 | 13,936 | 4 | 0.250 s |  | 0.220 s | 0.0300 s | arm_flexion 0.220 s | 15.00 s |")
-        self.assertEqual(rows[3], "| `kgd design arm_brace` | 2 | 13,936 | 4 | 0.600 s | **2.40x** (K = 2) | 0.550 s | 0.0500 s | "
-                                  "straighten 0.250 s, bend 0.300 s | 30.00 s |")
+        # Means (medians) of iterations 1..N: 0.25 s (one motion), 0.6 s (two): 2.40x the single-motion job's and
+        # 2.40 times its own motion's solve (0.25 s); one motion: 1.10 times its solve (0.227 s).
+        self.assertEqual(rows[2], "| `kgd design arm_flexion` | 1 | 13,936 | 4 | 0.250 s (0.250 s) |  | 0.227 s | **1.10** | 0.0233 s | "
+                                  "arm_flexion 0.227 s, 22.7 / 22.7 | 15.00 s |")
+        self.assertEqual(rows[3], "| `kgd design arm_brace` | 2 | 13,936 | 4 | 0.600 s (0.600 s) | 2.40x | 0.250 s | **2.40** | 0.0500 s | "
+                                  "straighten 0.250 s, 25.0 / 25.0; bend 0.300 s, 30.0 / 30.0 | 30.00 s |")
 
     def test_prediction_against_the_measured_wall_time(self):
         self.made(["arm_flexion", "arm_brace", "knee_flexion"])
