@@ -3,7 +3,7 @@ BUILD ?= build
 JOBS ?= 2
 CMAKE_FLAGS ?=
 
-.PHONY: setup build demo test images test-images acceptance stability test-sanitize bench study study-roles study-accuracy study-makehuman fuzz clean
+.PHONY: setup build demo test images test-images acceptance stability test-sanitize bench study study-roles study-accuracy study-makehuman study-bodies fuzz clean
 
 setup:
 	bash scripts/setup.sh
@@ -109,6 +109,12 @@ study-accuracy: build
 # The same study on the MakeHuman bodies of ../shared/bodies (about fifteen minutes).
 study-makehuman: build
 	bash scripts/makehuman_study.sh $(BUILD)
+
+# One design for sizes S-L (scripts/bodies_study.sh): knee flexion designed for M alone, for the worst and
+# for the mean of S, M and L, each worn by the three bodies; writes docs/RESULTS.md's results-bodies block
+# and docs/images/bodies/ (about five minutes on two quiet cores).
+study-bodies: build
+	bash scripts/bodies_study.sh $(BUILD)
 
 clean:
 	rm -rf build build-sanitize
