@@ -566,9 +566,11 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
       std::printf("%s: reinforced area %.1f%%, density ratio %.3f; cleaned (features >= %g mm): area %.1f%%, density ratio %.3f\n", what.c_str(),
                   100 * r->area_fraction, r->density_ratio, ex->min_feature_mm, 100 * r->cleaned_area_fraction, r->cleaned_density_ratio);
       for (size_t i = 0; i < r->pattern.pieces.size(); ++i) {
-        const Distortion& d = r->pattern.pieces[i].distortion;
-        std::printf("piece %zu: area distortion mean %.2f%% max %.2f%%, angle mean %.2f max %.2f deg\n", i + 1, 100 * d.area_mean, 100 * d.area_max,
-                    d.angle_mean_deg, d.angle_max_deg);
+        const PatternPiece& piece = r->pattern.pieces[i];
+        const Distortion& d = piece.distortion;
+        std::printf("piece %zu: area distortion mean %.2f%% max %.2f%%, angle mean %.2f max %.2f deg; sew line turns at most %.1f deg away from corners, "
+                    "within %.2f mm of the outline\n",
+                    i + 1, 100 * d.area_mean, 100 * d.area_max, d.angle_mean_deg, d.angle_max_deg, piece.sew_turning_max_deg, piece.sew_deviation_max_mm);
       }
       std::printf("%zu patches on a %g mm sheet (%.0f%% used)%s; %.2f s\n", r->patches.size(), ex->sheet_width_mm, 100 * r->sheet_usage,
                   ex->no_mirror ? "" : ", mirrored", r->seconds);

@@ -370,7 +370,10 @@ std::string ExportReportJson(const ExportReport& r) {
                            {"area_distortion_mean", p.distortion.area_mean},
                            {"area_distortion_max", p.distortion.area_max},
                            {"angle_distortion_mean_deg", p.distortion.angle_mean_deg},
-                           {"angle_distortion_max_deg", p.distortion.angle_max_deg}});
+                           {"angle_distortion_max_deg", p.distortion.angle_max_deg},
+                           {"sew_line_points", p.sew_line.rows()},
+                           {"sew_line_turning_max_deg", p.sew_turning_max_deg},
+                           {"sew_line_deviation_max_mm", p.sew_deviation_max_mm}});
   }
   j["seams"] = nlohmann::json::array();
   for (size_t i = 0; i < r.seam_lengths.size(); ++i)

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <optional>
 #include <sstream>
 
 namespace kgd {
@@ -25,10 +26,24 @@ std::vector<Point> Points(const FlatPositions& p) {
   return out;
 }
 
+// Where the segments ab and cd cross (strictly inside both), if they do.
+std::optional<Point> Crossing(const Point& a, const Point& b, const Point& c, const Point& d) {
+  const Point r = b - a, s = d - c;
+  const double denominator = r.x() * s.y() - r.y() * s.x();
+  if (std::abs(denominator) < 1e-300) return std::nullopt;
+  const Point ac = c - a;
+  const double t = (ac.x() * s.y() - ac.y() * s.x()) / denominator, u = (ac.x() * r.y() - ac.y() * r.x()) / denominator;
+  if (t <= 0 || t >= 1 || u <= 0 || u >= 1) return std::nullopt;
+  return a + t * r;
+}
+
 // The closed polygon `p` (counter-clockwise) moved outward by d (mitred, a mitre at most 3 d long).
+// Where the line bends inward more tightly than d, the moved points cross over one another: each such
+// loop is cut off at the crossing (the segments within 4 d of arc length are searched).
 std::vector<Point> Offset(const std::vector<Point>& p, double d) {
   const size_t n = p.size();
-  std::vector<Point> out(n);
+  std::vector<Point> moved(n);
+  double perimeter = 0;
   for (size_t i = 0; i < n; ++i) {
     const Point a = (p[i] - p[(i + n - 1) % n]).normalized(), b = (p[(i + 1) % n] - p[i]).normalized();
     const Point na(a.y(), -a.x()), nb(b.y(), -b.x());  // outward for counter-clockwise
@@ -37,10 +52,46 @@ std::vector<Point> Offset(const std::vector<Point>& p, double d) {
     if (len < 1e-9) m = na;
     else m /= len;
     const double c = std::max(m.dot(na), 1.0 / 3);
-    out[i] = p[i] + m * (d / c);
+    moved[i] = p[i] + m * (d / c);
+    perimeter += (p[(i + 1) % n] - p[i]).norm();
+  }
+  if (n < 4 || !(d > 0)) return moved;
+  // Start at the point farthest out (on the convex hull, so on no loop); a window of segments.
+  size_t start = 0;
+  for (size_t i = 1; i < n; ++i)
+    if (moved[i].x() > moved[start].x()) start = i;
+  const size_t window = std::min(n / 2, static_cast<size_t>(std::ceil(4 * d / (perimeter / n))) + 4);
+  std::vector<Point> ring(n);
+  for (size_t i = 0; i < n; ++i) ring[i] = moved[(start + i) % n];
+  std::vector<Point> out = {ring[0]};
+  for (size_t i = 0; i < n;) {
+    const Point a = out.back(), b = ring[(i + 1) % n];
+    size_t skip_to = 0;
+    Point at;
+    // The farthest crossing within the window cuts the largest loop.
+    for (size_t j = i + 2; j <= std::min(i + window, n - 1); ++j)
+      if (std::optional<Point> x = Crossing(a, b, ring[j], ring[(j + 1) % n])) skip_to = j, at = *x;
+    if (skip_to) {
+      out.push_back(at);
+      i = skip_to;  // on from the crossing along segment (skip_to, skip_to + 1)
+    } else {
+      if (i + 1 < n) out.push_back(b);
+      ++i;
+    }
   }
   return out;
 }
+
+// A piece's sew line (its outline, if it has none) and the sew line point of outline vertex k.
+std::vector<Point> SewLine(const PatternPiece& piece) {
+  if (piece.sew_line.rows() == 0) {
+    std::vector<Point> out;
+    for (int v : piece.outline) out.push_back(piece.flat.row(v).transpose());
+    return out;
+  }
+  return Points(piece.sew_line);
+}
+size_t SewIndex(const PatternPiece& piece, size_t k) { return piece.sew_line.rows() == 0 ? k : static_cast<size_t>(piece.sew_at[k]); }
 
 std::pair<Point, Point> Bounds(const std::vector<Point>& p) {
   Point lo = Point::Constant(1e300), hi = Point::Constant(-1e300);
@@ -71,14 +122,21 @@ std::string Escape(const std::string& t) {
 }  // namespace
 
 std::vector<SeamSides> SeamLengths(const Pattern& pattern) {
-  // Every flat outline edge by its garment vertices (both orders), with its length in mm.
+  // Every outline edge by its garment vertices (both orders), with the length in mm of the sew line
+  // along it (from the point of its first vertex to that of its second).
   std::multimap<std::pair<int, int>, double> edges;
-  for (const PatternPiece& p : pattern.pieces)
+  for (const PatternPiece& p : pattern.pieces) {
+    const std::vector<Point> sew = SewLine(p);
+    const size_t m = sew.size();
     for (size_t k = 0; k < p.outline.size(); ++k) {
-      const int a = p.outline[k], b = p.outline[(k + 1) % p.outline.size()];
-      const int ga = p.garment_vertex[a], gb = p.garment_vertex[b];
-      edges.insert({{std::min(ga, gb), std::max(ga, gb)}, 1000 * (p.flat.row(a) - p.flat.row(b)).norm()});
+      const size_t next = (k + 1) % p.outline.size();
+      const int ga = p.garment_vertex[p.outline[k]], gb = p.garment_vertex[p.outline[next]];
+      const size_t from = SewIndex(p, k), to = SewIndex(p, next);
+      double length = 0;
+      for (size_t i = from; i != to; i = (i + 1) % m) length += (sew[(i + 1) % m] - sew[i]).norm();
+      edges.insert({{std::min(ga, gb), std::max(ga, gb)}, 1000 * length});
     }
+  }
   std::vector<SeamSides> out;
   for (const Seam& seam : pattern.seams) {
     SeamSides s;
@@ -115,12 +173,13 @@ Sheet PatternSheet(const Pattern& pattern, const std::vector<Patch>& patches, co
     const Point axis = eig.eigenvectors().col(1);  // the larger eigenvalue's
     const double angle = std::atan2(axis.x(), axis.y());  // turns `axis` onto +y
     pl.rotation << std::cos(angle), -std::sin(angle), std::sin(angle), std::cos(angle);
+    const std::vector<Point> sew = SewLine(piece);
     std::vector<Point> outline;
-    for (int v : piece.outline) outline.push_back(pl(piece.flat.row(v).transpose()));
+    for (const Point& q : sew) outline.push_back(pl(q));
     const auto [lo, hi] = Bounds(outline);
     pl.offset = Point(x + margin - lo.x(), margin - lo.y());
     outline.clear();
-    for (int v : piece.outline) outline.push_back(pl(piece.flat.row(v).transpose()));
+    for (const Point& q : sew) outline.push_back(pl(q));
     sheet.paths.push_back({"14", outline, true});
     sheet.paths.push_back({"1", Offset(outline, o.seam_allowance_mm), true});
     const auto [blo, bhi] = Bounds(outline);
@@ -137,17 +196,19 @@ Sheet PatternSheet(const Pattern& pattern, const std::vector<Patch>& patches, co
     x = bhi.x() + o.seam_allowance_mm + margin - 10;
     height = std::max(height, bhi.y() + margin);
   }
-  // Notches: where a seam's middle vertex lies on a piece's outline, across the allowance.
+  // Notches: where a seam's middle vertex lies on a piece's sew line, across the allowance.
   for (const Seam& seam : pattern.seams) {
     const int g = seam.vertices[seam.vertices.size() / 2];
     for (size_t i = 0; i < pattern.pieces.size(); ++i) {
       const PatternPiece& piece = pattern.pieces[i];
-      const size_t n = piece.outline.size();
+      const std::vector<Point> sew = SewLine(piece);
+      const size_t n = piece.outline.size(), m = sew.size();
       for (size_t k = 0; k < n; ++k) {
         if (piece.garment_vertex[piece.outline[k]] != g) continue;
-        const Point p = placement[i](piece.flat.row(piece.outline[k]).transpose());
-        const Point a = placement[i](piece.flat.row(piece.outline[(k + n - 1) % n]).transpose());
-        const Point b = placement[i](piece.flat.row(piece.outline[(k + 1) % n]).transpose());
+        const size_t at = SewIndex(piece, k);
+        const Point p = placement[i](sew[at]);
+        const Point a = placement[i](sew[(at + m - 1) % m]);
+        const Point b = placement[i](sew[(at + 1) % m]);
         const Point t = (b - a).normalized(), out(t.y(), -t.x());
         sheet.paths.push_back({"4", {p, p + out * o.seam_allowance_mm * 0.6}, false});
       }

@@ -26,6 +26,7 @@
 #include <Eigen/SVD>
 #include <Eigen/SparseCholesky>
 
+#include "core/fabrication/sew_line.h"
 #include "core/mesh/topology.h"
 
 namespace kgd {
@@ -625,7 +626,8 @@ static std::optional<Pattern> SplitOpposite(const TriMesh& garment, const std::v
                                             std::map<EdgeKey, std::vector<int>>& edge_faces, const Pattern& one);
 static bool OverLimits(const std::vector<Distortion>& pieces, const PatternOptions& o, double margin = 1);
 
-Result<Pattern> CutPattern(const TriMesh& garment, const PatternOptions& options) {
+// CutPattern's pieces, before their sew lines are faired.
+static Result<Pattern> CutPieces(const TriMesh& garment, const PatternOptions& options) {
   const Positions& x = garment.vertices;
   const Faces& faces = garment.faces;
   const int nv = static_cast<int>(x.rows()), nf = static_cast<int>(faces.rows());
@@ -687,6 +689,12 @@ Result<Pattern> CutPattern(const TriMesh& garment, const PatternOptions& options
   // The second seam runs straight across, whatever the strain.
   if (std::optional<Pattern> halves = SplitOpposite(garment, loops, by_length, edge_faces, *pattern)) return std::move(*halves);
   return unfinished ? CutAlong(garment, seams, edge_faces, nullptr, nullptr) : pattern;
+}
+
+Result<Pattern> CutPattern(const TriMesh& garment, const PatternOptions& options) {
+  Result<Pattern> pattern = CutPieces(garment, options);
+  if (pattern.ok()) FairSewLines(&*pattern);
+  return pattern;
 }
 
 static bool OverLimits(const std::vector<Distortion>& pieces, const PatternOptions& o, double margin) {

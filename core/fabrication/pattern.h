@@ -40,6 +40,14 @@ struct PatternPiece {
   FlatPositions flat;               // flat positions (m)
   Distortion distortion;
   std::vector<int> outline;         // piece vertices around the boundary, counter-clockwise in flat
+  // The sew line (core/fabrication/sew_line.h): the outline faired between its corners, a point about
+  // every millimetre, closed and counter-clockwise; sewn and cut along, where the outline steps at every
+  // mesh edge.
+  FlatPositions sew_line;
+  std::vector<int> sew_at;          // outline vertex k -> its point on the sew line (corners exactly)
+  std::vector<int> sew_corners;     // sew line points that are corners (seam ends, where seams meet)
+  double sew_turning_max_deg = 0;   // the largest turn between consecutive segments away from corners
+  double sew_deviation_max_mm = 0;  // the farthest sew line point from the outline, on the body
 };
 
 // A seam: garment vertices along mesh edges; the two sides of every edge are sewn together.
@@ -63,7 +71,7 @@ struct PatternOptions {
   double max_area_distortion_mean = 0.02, max_area_distortion_max = 0.05, max_angle_distortion_mean_deg = 2;
 };
 
-// Cuts `garment` (rest shape) into disks and flattens each. Errors name the problem: a closed garment,
+// Cuts `garment` (rest shape) into disks, flattens each and fairs its sew line. Errors name the problem: a closed garment,
 // a handle, a seam that is not a path along edges, a piece that is not a disk.
 Result<Pattern> CutPattern(const TriMesh& garment, const PatternOptions& options = {});
 

@@ -9,8 +9,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include "core/fabrication/cut_sheet.h"
+#include "core/fabrication/sew_line.h"
 #include "core/mesh/topology.h"
 #include "core/scene/builtin_scenes.h"
 #include "core/scene/scene_file.h"
@@ -90,6 +92,13 @@ TEST(Pattern, AFlatGarmentIsOnePieceWithNoDistortion) {
   EXPECT_LT(m.area_max, 1e-9);
   EXPECT_LT(m.angle_max_deg, 1e-6);
   ExpectReportedIsMeasured(p->pieces[0].distortion, m, "the flat sample");
+  // Its sew line: the rectangle's four corners kept, straight between them.
+  const PatternPiece& piece = p->pieces[0];
+  EXPECT_EQ(piece.sew_corners.size(), 4u);
+  EXPECT_LT(MaxTurningDeg(piece.sew_line, piece.sew_corners), 1e-6);
+  const Eigen::RowVector2d extent = piece.sew_line.colwise().maxCoeff() - piece.sew_line.colwise().minCoeff();
+  const Eigen::RowVector2d outline_extent = piece.flat.colwise().maxCoeff() - piece.flat.colwise().minCoeff();
+  EXPECT_NEAR((extent - outline_extent).norm(), 0, 1e-12);
 }
 
 // A tube of radius r, height h: n rulings around, m rows up; every triangle spans two rulings, so the
@@ -150,12 +159,71 @@ bool SelfCrossing(const FlatPositions& p) {
   return false;
 }
 
+// The distance in the plane from q to the closed polyline p.
+double DistanceToLoop(const Eigen::Vector2d& q, const FlatPositions& p) {
+  double best = 1e300;
+  for (Eigen::Index j = 0; j < p.rows(); ++j) {
+    const Eigen::Vector2d a = p.row(j), b = p.row((j + 1) % p.rows());
+    const double t = std::clamp((q - a).dot(b - a) / std::max((b - a).squaredNorm(), 1e-300), 0.0, 1.0);
+    best = std::min(best, (q - a - t * (b - a)).norm());
+  }
+  return best;
+}
+
+// A piece's sew line as a tailor would cut it: its corners are the outline's vertices at seam ends,
+// exactly, and no others; away from them it turns by less than 10 degrees between consecutive segments
+// (points about a millimetre apart), where a `stepped` outline (a coarse mesh's) turns by more than 30;
+// every point within 1 mm of the
+// outline (in the plane, and on the body as reported); it does not cross itself; and the cut line, the sew
+// line moved out by the seam allowance, neither crosses itself nor comes nearer the sew line than the
+// allowance.
+void ExpectSewLine(const std::string& what, const Pattern& pattern, size_t i, bool stepped) {
+  const PatternPiece& piece = pattern.pieces[i];
+  std::set<int> ends;
+  for (const Seam& seam : pattern.seams) ends.insert(seam.vertices.front()), ends.insert(seam.vertices.back());
+  FlatPositions outline(piece.outline.size(), 2);
+  std::vector<int> outline_corners;
+  std::multiset<std::pair<double, double>> expected, got;
+  for (size_t k = 0; k < piece.outline.size(); ++k) {
+    outline.row(k) = piece.flat.row(piece.outline[k]);
+    if (ends.count(piece.garment_vertex[piece.outline[k]])) outline_corners.push_back(k), expected.insert({outline(k, 0), outline(k, 1)});
+  }
+  for (int c : piece.sew_corners) got.insert({piece.sew_line(c, 0), piece.sew_line(c, 1)});
+  EXPECT_EQ(got, expected) << what << ": the sew line's corners are the outline's seam ends";
+  const double turning = MaxTurningDeg(piece.sew_line, piece.sew_corners), staircase = MaxTurningDeg(outline, outline_corners);
+  double plane = 0;
+  for (Eigen::Index j = 0; j < piece.sew_line.rows(); ++j) plane = std::max(plane, DistanceToLoop(piece.sew_line.row(j).transpose(), outline));
+  std::printf("%s sew line: %zd points, turning max %.2f deg away from %zu corners (outline %.1f), deviation max %.3f mm\n", what.c_str(),
+              piece.sew_line.rows(), turning, piece.sew_corners.size(), staircase, piece.sew_deviation_max_mm);
+  if (stepped) EXPECT_GT(staircase, 30) << what << ": the outline steps at mesh edges";
+  EXPECT_LT(turning, 10) << what;
+  EXPECT_NEAR(piece.sew_turning_max_deg, turning, 1e-9) << what;
+  EXPECT_LE(1000 * plane, 1.0) << what;
+  EXPECT_LE(piece.sew_deviation_max_mm, 1.0) << what;
+  EXPECT_FALSE(SelfCrossing(piece.sew_line)) << what;
+  // The cut line: the sheet's layer 1 path of this piece (its sew line is layer 14, in mm).
+  const Sheet sheet = PatternSheet(pattern, {}, SheetOptions{});
+  std::vector<const SheetPath*> sew, cut;
+  for (const SheetPath& path : sheet.paths)
+    if (path.layer == "14") sew.push_back(&path);
+    else if (path.layer == "1") cut.push_back(&path);
+  ASSERT_EQ(cut.size(), pattern.pieces.size());
+  FlatPositions sew_mm(sew[i]->points.size(), 2), cut_mm(cut[i]->points.size(), 2);
+  for (size_t k = 0; k < sew[i]->points.size(); ++k) sew_mm.row(k) = sew[i]->points[k].transpose();
+  for (size_t k = 0; k < cut[i]->points.size(); ++k) cut_mm.row(k) = cut[i]->points[k].transpose();
+  double nearest = 1e300;
+  for (Eigen::Index k = 0; k < cut_mm.rows(); ++k) nearest = std::min(nearest, DistanceToLoop(cut_mm.row(k).transpose(), sew_mm));
+  EXPECT_FALSE(SelfCrossing(cut_mm)) << what << ": the cut line";
+  EXPECT_GE(nearest, 0.99 * SheetOptions{}.seam_allowance_mm) << what << ": the cut line";
+}
+
 // The acceptance of a garment's pattern, measured from the garment and the flat pieces (MeasureFromGarment):
 // every garment face in exactly one piece, no flat triangle flipped, area distortion <= 2 % mean and
 // <= 5 % max, angle distortion <= 2 degrees mean; every piece's flat area equals its rest area within
 // its mean area distortion; the figures CutPattern reports are these; outlines that do not cross
-// themselves; the two sides of every seam equal within 0.5 mm.
-void ExpectPattern(const std::string& name, const TriMesh& garment) {
+// themselves; sew lines as ExpectSewLine; the two sides of every seam, along the sew lines, equal within
+// 0.5 mm.
+void ExpectPattern(const std::string& name, const TriMesh& garment, bool stepped = true) {
   Result<Pattern> p = CutPattern(garment);
   ASSERT_TRUE(p.ok()) << p.message();
   ASSERT_GE(p->pieces.size(), 1u);
@@ -186,6 +254,7 @@ void ExpectPattern(const std::string& name, const TriMesh& garment) {
     for (size_t k = 0; k < piece.outline.size(); ++k) outline.row(k) = piece.flat.row(piece.outline[k]);
     EXPECT_GT(SignedArea(outline), 0) << "counter-clockwise";
     EXPECT_FALSE(SelfCrossing(outline)) << name << " piece " << i + 1;
+    ExpectSewLine(what, *p, i, stepped);
   }
   const std::vector<SeamSides> sides = SeamLengths(*p);
   ASSERT_EQ(sides.size(), p->seams.size());
@@ -216,7 +285,7 @@ TEST(Pattern, TheMakeHumanArmSleeveOpensIntoPiecesWithinTheDistortionLimitsAndSe
       "garment": {"region": ")" << (bodies / "regions" / "sleeve_arm.faces.txt").string() << R"(", "subdivisions": 2}})";
   Result<SceneSpec> s = LoadScene((dir / "sleeve.json").string());
   ASSERT_TRUE(s.ok()) << s.message();
-  ExpectPattern("makehuman sleeve_arm", s->garment);
+  ExpectPattern("makehuman sleeve_arm", s->garment, /*stepped=*/false);
 }
 
 TEST(Pattern, ASeamThatIsNotAPathIsRefusedByName) {
