@@ -325,7 +325,7 @@ TEST_F(DesignCommand, ScenesListEachScenesMotionsAndSymmetry) {
   EXPECT_EQ(column("posture_shirt", symmetric, 3), "yes") << r.output;
   EXPECT_EQ(column("slouch", symmetric, 3), "yes") << r.output;
   EXPECT_EQ(column("knee_flexion", symmetric, 3), "no ") << r.output;
-  EXPECT_EQ(column("arm_brace", motions, 38), "straighten (resist 1), bend (allow 1) ") << r.output;
+  EXPECT_EQ(column("arm_brace", motions, 39), "straighten (resist 1), bend (allow 15) ") << r.output;
   EXPECT_EQ(column("posture_shirt", motions, 43), "slouch (resist 1), reach_forward (allow 1) ") << r.output;
   EXPECT_EQ(column("knee_flexion", motions, 25), "knee_flexion (resist 1)  ") << r.output;
 }

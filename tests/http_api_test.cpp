@@ -190,7 +190,7 @@ TEST_F(HttpApi, ScenesListTheBuiltinScenesAndTheBodyMeasurements) {
   std::map<std::string, nlohmann::json> json_of;
   for (const nlohmann::json& s : listed["scenes"]) json_of[s["name"]] = s;
   EXPECT_EQ(json_of["arm_brace"]["motions"], nlohmann::json::parse(R"([{"name": "straighten", "role": "resist", "weight": 1},
-                                                                       {"name": "bend", "role": "allow", "weight": 1}])"));
+                                                                       {"name": "bend", "role": "allow", "weight": 15}])"));
   EXPECT_EQ(json_of["arm_brace"]["symmetric"], false);
   EXPECT_EQ(json_of["arm_flexion"]["motions"], nlohmann::json::parse(R"([{"name": "arm_flexion", "role": "resist", "weight": 1}])"));
   EXPECT_EQ(json_of["posture_shirt"]["motions"][1]["name"], "reach_forward");
