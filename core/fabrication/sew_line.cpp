@@ -257,25 +257,38 @@ FairedSpan FairSpan(const std::vector<FlatPositions>& sides, const std::vector<E
     return t;
   };
   // The smoothing spline of side s, reweighted: where a point strays beyond `fit` times the tolerance,
-  // its target becomes the nearest place within it and its weight grows; where the curve turns more
-  // than the target, the stiffness there rises (Lawson). The resampled outline if no fit is within the
-  // tolerance.
-  auto fair = [&](int s, double fit) {
+  // its target becomes the nearest place within it and its weight grows by `growth`; where the curve
+  // turns more than the target, the stiffness there rises (Lawson). Fast growth pins a point where it
+  // first strayed, slow growth lets the curve find its way around a bend of the outline: each growth of
+  // the options is tried and the fit of the smallest largest turn kept. The resampled outline if no fit
+  // is within the tolerance.
+  auto fair_with = [&](int s, double fit, double growth, double* best_turn) {
     const double limit = fit * o.tolerance_m;
     Eigen::VectorXd w = Eigen::VectorXd::Ones(n), alpha = Eigen::VectorXd::Constant(n, alpha0);
     FlatPositions target = p[s], q = p[s], best = p[s];
-    double best_turn = kInf;
+    *best_turn = kInf;
     for (int outer = 0; outer < o.iterations; ++outer) {
       q = Spline(n, closed, w, alpha)(target);
       for (int i = 0; i < n; ++i) {
         const Point a = admissible(s, i, Row(q, i), limit);
-        if ((a - Row(q, i)).norm() > 0) w[i] *= 4, target.row(i) = a.transpose();
+        if ((a - Row(q, i)).norm() > 0) w[i] *= growth, target.row(i) = a.transpose();
       }
       const bool within = Deviation(q, sides[s], scales[s], closed) <= o.tolerance_m * (1 + fit) / 2;
       const Eigen::VectorXd t = turns({q});
-      if (within && t.maxCoeff() < best_turn) best = q, best_turn = t.maxCoeff();
+      if (within && t.maxCoeff() < *best_turn) best = q, *best_turn = t.maxCoeff();
       if (within && t.maxCoeff() <= target_turn) break;
       for (int i = 0; i < n; ++i) alpha[i] = std::clamp(alpha[i] * std::clamp(t[i] / target_turn, 0.5, 4.0), alpha0, 1e3 * alpha0);
+    }
+    return best;
+  };
+  auto fair = [&](int s, double fit) {
+    FlatPositions best = p[s];
+    double best_turn = kInf;
+    for (const double growth : o.weight_growth) {
+      double turn = kInf;
+      FlatPositions q = fair_with(s, fit, growth, &turn);
+      if (turn < best_turn) best = std::move(q), best_turn = turn;
+      if (best_turn <= target_turn) break;
     }
     return best;
   };

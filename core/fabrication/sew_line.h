@@ -8,7 +8,9 @@
 // to the outline resampled at equal arc length steps, its ends (corners) fixed, reweighted as Lawson's
 // algorithm does: where a point strays beyond the tolerance its target moves to the nearest place within
 // it and its weight grows, where the curve turns by more than a target angle the stiffness there rises,
-// so that the largest turn comes down while every point stays within the tolerance. The two sides of a
+// so that the largest turn comes down while every point stays within the tolerance. How fast the weights
+// grow decides where the curve settles around a bend of the outline; a few rates are tried and the
+// smoothest fit kept. The two sides of a
 // seam are flattened with their own pieces and so differ in shape: faired alike they differ in length by
 // up to a percent. The shorter side is faired again within a narrower tolerance until it is as long as
 // the other, and each side's remaining wiggle (about a much stiffer spline) is then scaled to their mean
@@ -29,6 +31,7 @@ struct SewLineOptions {
   double smoothing_m = 0.01;     // the spline's length scale at first
   double target_turn_deg = 4;    // the spline is stiffened where the line turns more than this
   int iterations = 60;           // reweightings
+  std::vector<double> weight_growth = {4, 2, 1.5};  // a straying point's weight grows by one of these a reweighting
 };
 
 // The largest turning angle (degrees) between consecutive segments of the closed polyline `closed`, at
