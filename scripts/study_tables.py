@@ -165,7 +165,7 @@ def roles(out):
                 first = f"`{command(run)}` | {done['iterations']}" if k == 0 else " | "
                 rows.append(f"| {first} | {m['name']} | {m['role']}, {m['weight']:g} | {m['density_ratio']:.3f} | "
                             f"{joules(m['reinforced_energy_J'])} |")
-    rows += ["", f"The issue's targets, each run with roles against its resist-only twin: an allowed motion's reinforced "
+    rows += ["", f"The targets of a scene with roles, each run against its resist-only twin: an allowed motion's reinforced "
              f"energy at most {ALLOWED_AT_MOST:g}x, a resisted motion's density ratio at least {100 * RESISTED_AT_LEAST:.0f} %:", "",
              "| scene | allowed motion: reinforced energy, with roles / resist-only | resisted motion: density ratio, with roles / resist-only "
              "| the resist-only design's density ratio in the allowed motion |", "|---|---|---|---|"]
