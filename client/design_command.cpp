@@ -312,6 +312,12 @@ Result<StoredDesign> LoadStoredDesign(const std::string& path, int k) {
 int RunEvaluateOnBodies(const StoredDesign& sd, const std::string& path, const std::string& on, bool json) {
   Result<SceneSpec> scene = on.empty() ? Result<SceneSpec>(sd.scene) : ResolveScene(on);
   if (!scene.ok()) return Fail("evaluate", scene.message());
+  const Faces& own = sd.scene.garment.faces;
+  const Faces& theirs = scene->garment.faces;
+  if (own.rows() != theirs.rows() || own.cols() != theirs.cols() || own != theirs)
+    return Fail("evaluate", path + " on " + scene->name + ": the design's garment (scene '" + sd.scene.name + "', " + std::to_string(own.rows()) +
+                                " faces) is not the garment of scene '" + scene->name + "' (" + std::to_string(theirs.rows()) +
+                                " faces, other faces or another order): --on takes a scene of the design's garment");
   const std::vector<uint8_t>& design = sd.file.iterations[sd.iteration].design;
   Result<std::vector<BodyEvaluation>> bodies = EvaluateOnBodies(*scene, design);
   if (!bodies.ok()) return Fail("evaluate", path + " on " + scene->name + ": " + bodies.message());

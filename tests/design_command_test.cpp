@@ -211,6 +211,13 @@ TEST_F(DesignCommand, BadParametersAreRefused) {
   EXPECT_NE(r.output.find("the garment is not symmetric about the plane"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("iterations so far"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(Path("sym.h5"))) << "nothing is written for a job refused before its first iteration";
+  // A design worn by the bodies of a scene of another garment (other faces): refused, both scenes named.
+  r = Kgd("design pull_test_all_cloth --iterations 1 --out " + Path("pull.h5"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = Kgd("evaluate " + Path("pull.h5") + " --on knee_flexion");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("is not the garment of scene 'knee_flexion'"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("scene 'pull_test_all_cloth'"), std::string::npos) << r.output;
   std::ofstream(Path("text.h5")) << "not hdf5\n";
   r = Kgd("designs " + Path("text.h5"));
   EXPECT_EQ(r.exit_code, 2);
