@@ -7,6 +7,7 @@
 #include <tuple>
 #include <vector>
 
+#include "core/scene/motion_test_scene.h"
 #include "core/scene/scene.h"
 #include "core/scene/shapes.h"
 
@@ -29,17 +30,7 @@ inline Result<SceneSpec> SleeveForBodies(const std::vector<std::tuple<std::strin
   SceneSpec s;
   s.name = "sleeve_for_bodies";
   s.motion = FlexingLimb(std::get<1>(bodies.front()), 16, &axial);
-  const Faces& faces = s.motion->faces;
-  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
-    double lo = 1e300, hi = -1e300;
-    for (int k = 0; k < 3; ++k) lo = std::min(lo, axial[faces(f, k)]), hi = std::max(hi, axial[faces(f, k)]);
-    if (lo < -0.09 || hi > 0.09) continue;
-    s.garment_region.push_back(static_cast<int>(f));
-    if (lo < -0.07 || hi > 0.07) s.attachment_body_faces.push_back(static_cast<int>(f));
-  }
-  s.effects.contact = ContactModel::kUnilateral;
-  s.effects.attachments = true;
-  KGD_RETURN_IF_ERROR(CutGarmentFromMotion(&s));
+  KGD_RETURN_IF_ERROR(CutTestSleeve(s.motion->faces, axial, &s));
   for (const auto& [name, radius, weight] : bodies) s.bodies.push_back({name, weight, FlexingLimb(radius)});
   s.body_objective = objective;
   return s;

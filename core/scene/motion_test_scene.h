@@ -13,6 +13,21 @@
 
 namespace kgd {
 
+// The test sleeve on a limb: the faces within 9 cm of the joint along the limb (`axial`: each vertex's
+// coordinate along it, m), attached on the outer 2 cm at either end, cut from the scene's motion.
+inline Status CutTestSleeve(const Faces& faces, const std::vector<double>& axial, SceneSpec* s) {
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    double lo = 1e300, hi = -1e300;
+    for (int k = 0; k < 3; ++k) lo = std::min(lo, axial[faces(f, k)]), hi = std::max(hi, axial[faces(f, k)]);
+    if (lo < -0.09 || hi > 0.09) continue;
+    s->garment_region.push_back(static_cast<int>(f));
+    if (lo < -0.07 || hi > 0.07) s->attachment_body_faces.push_back(static_cast<int>(f));
+  }
+  s->effects.contact = ContactModel::kUnilateral;
+  s->effects.attachments = true;
+  return CutGarmentFromMotion(s);
+}
+
 inline Result<SceneSpec> ThreeMotionSleeve() {
   LimbShape shape;
   shape.around = 16;
@@ -29,16 +44,7 @@ inline Result<SceneSpec> ThreeMotionSleeve() {
     s.motions.push_back(std::move(m));
   }
   s.motion = s.motions.front().pose;
-  for (Eigen::Index f = 0; f < rest.faces.rows(); ++f) {
-    double lo = 1e300, hi = -1e300;
-    for (int k = 0; k < 3; ++k) lo = std::min(lo, axial[rest.faces(f, k)]), hi = std::max(hi, axial[rest.faces(f, k)]);
-    if (lo < -0.09 || hi > 0.09) continue;
-    s.garment_region.push_back(static_cast<int>(f));
-    if (lo < -0.07 || hi > 0.07) s.attachment_body_faces.push_back(static_cast<int>(f));
-  }
-  s.effects.contact = ContactModel::kUnilateral;
-  s.effects.attachments = true;
-  KGD_RETURN_IF_ERROR(CutGarmentFromMotion(&s));
+  KGD_RETURN_IF_ERROR(CutTestSleeve(rest.faces, axial, &s));
   KGD_RETURN_IF_ERROR(ValidateSceneMotions(s));
   return s;
 }
