@@ -8,6 +8,7 @@ import { Compare } from './compare.js';
 import { CutPanel, CUT_FILES } from './cut_files.js';
 import { EnergyScale } from './colour_scale.js';
 import * as viewer from './viewer_controls.js';
+import { Studio } from './studio.js';
 
 const $ = (id) => document.getElementById(id);
 const state = {
@@ -535,3 +536,16 @@ $('show-body').addEventListener('change', () => view.showBody($('show-body').che
 loadScenes().catch((e) => status(`cannot load scenes: ${e.message}`));
 refreshJobs();
 setInterval(refreshJobs, 2000);
+// The studio (#studio) in the jobs view's place; a job it submits is shown in the jobs view.
+const studio = new Studio($('studio'), { onSubmitted: async (job) => { location.hash = '#jobs'; await refreshJobs(); select(job.id); } });
+window.kgd.studio = studio;
+function showView() {
+  const inStudio = location.hash === '#studio';
+  $('jobs-view').hidden = inStudio;
+  $('studio').hidden = !inStudio;
+  for (const a of document.querySelectorAll('#view-tabs a')) a.toggleAttribute('aria-current', a.hash === (inStudio ? '#studio' : '#jobs'));
+  if (inStudio) studio.show();
+}
+window.addEventListener('hashchange', showView);
+showView();
+
