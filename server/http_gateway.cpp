@@ -12,6 +12,7 @@
 #include "proto/job_spec.h"
 #include "proto/connection.h"
 #include "server/job_results.h"
+#include "server/region_check.h"
 // After Eigen (through the headers above): a macro of the socket headers it pulls in breaks Eigen's.
 #include <httplib.h>
 #include <sys/socket.h>
@@ -215,6 +216,7 @@ struct HttpGateway::Impl {
   void GarmentRoutes();     // /v1/jobs/{id}/garment/..., /v1/jobs/{id}/body/...
   void EvaluationRoutes();  // /v1/jobs/{id}/evaluation[/frames/...|/baselines/...]
   void DesignFileRoutes();  // /v1/jobs/{id}/design-file
+  void RegionRoutes();      // /v1/regions:check
   void Watch(const httplib::Request& req, httplib::Response& res);
   void CreateJob(const httplib::Request& req, httplib::Response& res);
 };
@@ -433,6 +435,59 @@ void HttpGateway::Impl::DesignFileRoutes() {
   });
 }
 
+// The studio page's check of a painted garment region (server/region_check.h): parts in, JSON out.
+void HttpGateway::Impl::RegionRoutes() {
+  httplib::Server& http = *server;
+  http.Post("/v1/regions:check", [this](const Request& req, Response& res) {
+    if (!req.is_multipart_form_data())
+      return SetError(res, 415, ServiceCode::kInvalidArgument,
+                      "POST /v1/regions:check takes multipart/form-data (parts body, faces, ...), not '" + req.get_header_value("Content-Type") + "'");
+    auto part = [&req](const char* name) { return req.has_file(name) ? req.get_file_value(name).content : std::string(); };
+    RegionCheckRequest r;
+    if (req.has_file("body")) r.body_name = req.get_file_value("body").filename;
+    r.body_bytes = part("body");
+    r.faces = part("faces");
+    r.keep_out = part("keepOut");
+    r.keep_in = part("keepIn");
+    r.attach_width_m = part("attachWidthM");
+    r.fill_holes = part("fillHoles");
+    r.mirror = part("mirror");
+    r.symmetry_plane = part("symmetryPlane");
+    r.subdivisions = part("subdivisions");
+    r.frames = part("frames");
+    r.budget = part("budget");
+    v1::ListScenesResponse scenes;  // for the machine factor
+    if (!Answered(res, service->ListScenes(&scenes))) return;
+    Result<RegionCheckAnswer> a = CheckPaintedRegion(r, scenes.machine_factor());
+    if (!a.ok()) return SetError(res, 400, ServiceCode::kInvalidArgument, a.message());
+    nlohmann::json j;
+    j["faces"] = a->faces;
+    j["filledFaces"] = a->filled_faces;
+    j["mirrored"] = a->mirrored;
+    j["valid"] = a->valid;
+    if (!a->valid) j["refusal"] = a->refusal;
+    j["keepOut"] = a->keep_out;
+    j["keepIn"] = a->keep_in;
+    j["predictedJobS"] = a->predicted_job_s;
+    if (a->valid) {
+      j["areaM2"] = a->region.area_m2;
+      j["vertices"] = a->region.vertices;
+      j["subdividedVertices"] = a->subdivided_vertices;
+      j["subdividedFaces"] = a->subdivided_faces;
+      j["loops"] = nlohmann::json::array();
+      for (const RegionLoop& l : a->region.loops)
+        j["loops"].push_back({{"lengthM", l.length_m}, {"centreM", {l.centre_m.x(), l.centre_m.y(), l.centre_m.z()}}, {"vertices", l.vertices.size()}});
+      if (!r.attach_width_m.empty()) {
+        j["bands"] = nlohmann::json::array();
+        for (const AttachmentBand& b : a->bands) j["bands"].push_back({{"loop", b.loop}, {"faces", b.faces}, {"areaM2", b.area_m2}});
+      }
+      j["keepOutGarmentFaces"] = a->keep_out_garment_faces;
+      j["keepInGarmentFaces"] = a->keep_in_garment_faces;
+    }
+    res.set_content(j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "application/json");
+  });
+}
+
 void HttpGateway::Impl::CreateJob(const Request& req, Response& res) {
   const std::string type = req.get_header_value("Content-Type");
   v1::CreateJobRequest r;
@@ -619,6 +674,7 @@ Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService& service, con
   m.GarmentRoutes();
   m.EvaluationRoutes();
   m.DesignFileRoutes();
+  m.RegionRoutes();
   // The library's own options (address reuse), and the socket kept to widen its listen queue below.
   http.set_socket_options([&m](int sock) {
     httplib::default_socket_options(sock);

@@ -36,6 +36,11 @@
 //   GET  /v1/jobs/{id}/iterations/{n}/cut/{pattern,patches}.{svg,dxf,png}, report.json   cut files (docs/FABRICATION.md;
 //        ?minFeatureMm=&seamAllowanceMm=&sheetWidthMm=&mirror=false), made by geometry alone; downloads named
 //        job-{id}-iteration-{k}-{file}, k the iteration exported (the last stored for n = -1)
+//   POST /v1/regions:check                               the studio page's check of a painted garment region:
+//        multipart parts body (OBJ/PLY), faces, keepOut, keepIn, attachWidthM, fillHoles, mirror, symmetryPlane,
+//        subdivisions, frames, budget; JSON: the region after mirror/tidy/fill, valid or CheckRegion's refusal
+//        (kgd region's words), area, loops, bands, subdivided counts, keep lists as garment faces, predicted
+//        job seconds (server/region_check.h). Geometry only; no gRPC equivalent
 //   GET  /                                               the web page (static files of web_dir)
 //
 // The handlers only translate (path and query to request, status to HTTP status, messages to JSON,

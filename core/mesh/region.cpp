@@ -151,6 +151,16 @@ Status ApplyRule(const TriMesh& body, const Positions& centroids, const RegionRu
 
 }  // namespace
 
+std::vector<int> TidyRegionBoundary(const Faces& faces, const std::vector<int>& region) {
+  std::vector<char> in(faces.rows(), 0);
+  for (int f : region) in.at(f) = 1;
+  Tidy(faces, &in);
+  std::vector<int> out;
+  for (size_t f = 0; f < in.size(); ++f)
+    if (in[f]) out.push_back(static_cast<int>(f));
+  return out;
+}
+
 std::string FaceAt(const Positions& x, const Faces& faces, int face) {
   return "face " + std::to_string(face) + " at " + Point(Centroid(x, faces, face));
 }

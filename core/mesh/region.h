@@ -67,6 +67,10 @@ struct RegionSpec {
 // kTidyRounds).
 inline constexpr int kTidyRounds = 20;
 
+// `region` (body faces) with its boundary tidied as SelectRegion tidies its rules' faces; ascending
+// (empty when every face was on its own or an ear). For faces chosen otherwise, e.g. painted.
+std::vector<int> TidyRegionBoundary(const Faces& faces, const std::vector<int>& region);
+
 // A rule as `kgd region` spells it, e.g. "--plane -0.255,1.244,0.017,-0.73,-0.67,0.15".
 std::string DescribeRule(const RegionRule& rule);
 
