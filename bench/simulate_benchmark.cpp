@@ -14,6 +14,7 @@
 #include "core/scene/simulate.h"
 #include "core/sim/sparse_cholesky.h"
 #include "core/scene/builtin_scenes.h"
+#include "core/scene/paper_scenes.h"
 
 namespace kgd {
 namespace {
@@ -210,13 +211,15 @@ BENCHMARK(BM_WarmResolveBeso)
 // step starts where the BESO loop would. resid_over_tol: the residual left, in units of the tolerance.
 // This is the floor under BM_WarmResolve's time: what one or two iterations cost is more than what a
 // re-solve may take, unless they alone reach the tolerance (docs/PERFORMANCE.md).
-void BM_WarmFirstIterations(benchmark::State& state) {
-  const SceneSpec s = Sleeve(true);
-  GarmentSystem sys(BuildGarmentModel(s).value(), s.initial);
+// The timed loop of BM_WarmFirstIterations and BM_SceneNewtonStep: from the equilibrium of `s`'s design
+// (solved first), each step flips DesignSteps' next 1.5 % of the faces and times a solve of at most
+// `newton_its` iterations from the last equilibrium; the untimed chain then solves to the tolerance.
+void TruncatedWarmSolves(benchmark::State& state, GarmentModel model, const SceneSpec& s, const SolverSettings& settings,
+                         int newton_its) {
+  GarmentSystem sys(std::move(model), s.initial);
   Simulator chain(&sys), truncated(&sys);
-  const SolverSettings settings;
   SolverSettings first = settings;
-  first.max_iterations = static_cast<int>(state.range(0));
+  first.max_iterations = newton_its;
   Positions x = s.initial;
   chain.Solve(&x, settings);
   {
@@ -241,11 +244,42 @@ void BM_WarmFirstIterations(benchmark::State& state) {
     state.ResumeTiming();
   }
   state.counters["resid_over_tol"] = resid_over_tol / steps;
+  state.counters["vertices"] = sys.num_vertices();
   ReportMeans(state, total, steps);
+}
+
+void BM_WarmFirstIterations(benchmark::State& state) {
+  const SceneSpec s = Sleeve(true);
+  TruncatedWarmSolves(state, BuildGarmentModel(s).value(), s, SolverSettings{}, static_cast<int>(state.range(0)));
 }
 BENCHMARK(BM_WarmFirstIterations)
     ->DenseRange(1, 3)
     ->ArgName("newton_its")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(20);
+
+// One full warm Newton step (assembly, factorization, solve, line search) on a built-in scene's garment
+// (the scene cache), as BM_WarmFirstIterations/newton_its:1 on the sleeve: from the fully reinforced
+// equilibrium, 20 steps of 1.5 % random flips, each timed solve stopped after one iteration, with the
+// scene's own solver settings. What a design iteration of that scene is measured against
+// (bench/iteration_cost.py). scene: 0 arm_flexion, 1 knee_flexion, 2 slouch.
+void BM_SceneNewtonStep(benchmark::State& state) {
+  static const char* const kScenes[] = {"arm_flexion", "knee_flexion", "slouch"};
+  Result<SceneSpec> s = BuiltinScene(kScenes[state.range(0)]);
+  if (!s.ok()) {
+    state.SkipWithError(s.message().c_str());
+    return;
+  }
+  Result<GarmentModel> model = BuildGarmentModel(*s);
+  if (!model.ok()) {
+    state.SkipWithError(model.message().c_str());
+    return;
+  }
+  TruncatedWarmSolves(state, std::move(model).value(), *s, s->solver, 1);
+}
+BENCHMARK(BM_SceneNewtonStep)
+    ->DenseRange(0, 2)
+    ->ArgName("scene")
     ->Unit(benchmark::kMillisecond)
     ->Iterations(20);
 
