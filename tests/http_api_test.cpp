@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "core/beso/quality.h"
+#include "core/mesh/mesh_io.h"
 #include "kgd/v1/kgd.pb.h"
 #include "tests/child_process.h"
 #include "tests/kgd_cli.h"
@@ -595,6 +596,106 @@ TEST_F(HttpApi, AnUploadedSceneFileWithItsMeshesRuns) {
   ASSERT_TRUE(res);
   EXPECT_EQ(res->status, 400);
   EXPECT_NE(res->body.find("INVALID_ARGUMENT"), std::string::npos) << res->body;
+}
+
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+std::string Join(const std::vector<int>& faces) {
+  std::string s;
+  for (int f : faces) s += std::to_string(f) + " ";
+  return s;
+}
+
+// The studio page's region check on the studio test torso (tests/data/studio): the painted half mirrored
+// is the region and the bands `kgd region` wrote from sleeve_rules.txt; a refusal is kgd region's.
+TEST_F(HttpApi, ARegionCheckOfThePaintedHalfMirroredIsTheRegionAndBandsOfKgdRegion) {
+  const std::string dir = std::string(KGD_SOURCE_DIR) + "/tests/data/studio/";
+  const std::string obj = ReadText(dir + "rest.obj");
+  const Result<TriMesh> body = ParseMesh(obj, "rest.obj");
+  ASSERT_TRUE(body.ok()) << body.message();
+  const Positions c = FaceCentroids(body->vertices, body->faces);
+  const Result<std::vector<int>> region = ReadIndexList(dir + "garment_region.txt");
+  const Result<std::vector<int>> attached = ReadIndexList(dir + "attachment_body_faces.txt");
+  ASSERT_TRUE(region.ok() && attached.ok());
+  std::vector<int> half, keep_in;  // the region's faces with x < 0; of them, those along the lower loop
+  for (int f : *region)
+    if (c(f, 0) < 0) {
+      half.push_back(f);
+      if (c(f, 1) < 1.02) keep_in.push_back(f);
+    }
+  auto check = [&](const httplib::MultipartFormDataItems& parts) {
+    httplib::MultipartFormDataItems items = {{"body", obj, "rest.obj", "application/octet-stream"}};
+    items.insert(items.end(), parts.begin(), parts.end());
+    return Service().Client().Post("/v1/regions:check", items);
+  };
+  auto res = check({{"faces", Join(half), "", ""}, {"mirror", "true", "", ""}, {"attachWidthM", "0.02", "", ""}, {"keepIn", Join(keep_in), "", ""}});
+  ASSERT_TRUE(res);
+  ASSERT_EQ(res->status, 200) << res->body;
+  const nlohmann::json a = nlohmann::json::parse(res->body);
+  EXPECT_TRUE(a["valid"].get<bool>()) << res->body.substr(0, 2000);
+  EXPECT_TRUE(a["mirrored"].get<bool>());
+  EXPECT_EQ(a["faces"].get<std::vector<int>>(), *region);
+  ASSERT_EQ(a["loops"].size(), 2u);
+  std::set<int> bands;
+  for (const auto& b : a["bands"])
+    for (int f : b["faces"]) bands.insert(f);
+  EXPECT_EQ(std::vector<int>(bands.begin(), bands.end()), *attached);
+  EXPECT_EQ(a["subdividedFaces"].get<int>(), 4 * static_cast<int>(region->size()));
+  EXPECT_EQ(a["keepIn"].size(), 2 * keep_in.size()) << "mirrored";
+  EXPECT_EQ(a["keepInGarmentFaces"].size(), 4 * 2 * keep_in.size()) << "4 garment faces per body face at subdivisions 1";
+  const double draft = a["predictedJobS"]["draft"], standard = a["predictedJobS"]["standard"], precise = a["predictedJobS"]["precise"];
+  EXPECT_LT(0, draft);
+  EXPECT_LT(draft, standard);
+  EXPECT_LT(standard, precise);
+
+  // Two pieces (two narrower bands): refused with the words `kgd region` prints for the same faces.
+  std::vector<int> two;
+  for (int f : *region)
+    if (c(f, 1) < 1.06 || c(f, 1) > 1.14) two.push_back(f);
+  res = check({{"faces", Join(two), "", ""}});
+  ASSERT_TRUE(res);
+  ASSERT_EQ(res->status, 200) << res->body;
+  const nlohmann::json refused = nlohmann::json::parse(res->body);
+  EXPECT_FALSE(refused["valid"].get<bool>());
+  const std::string words = refused["refusal"];
+  const auto cli = cli_test::Kgd("region " + dir + "rest.obj --plane 0,1.0,0,0,1,0 --plane 0,1.06,0,0,-1,0 --union --plane 0,1.14,0,0,1,0 " +
+                                 "--plane 0,1.2,0,0,-1,0 --out " + Service().dir() + "/two/two");
+  EXPECT_EQ(cli.exit_code, 2) << cli.output;
+  ASSERT_EQ(words.rfind("rest.obj: ", 0), 0u) << words;
+  EXPECT_NE(cli.output.find("kgd region: " + dir + words), std::string::npos) << cli.output << "\nvs\n" << words;
+  EXPECT_NE(words.find("piece"), std::string::npos) << words;
+}
+
+TEST_F(HttpApi, ARegionCheckNamesThePartOfABadRequest) {
+  auto cli = Service().Client();
+  const std::string obj = ReadText(std::string(KGD_SOURCE_DIR) + "/tests/data/studio/rest.obj");
+  auto post = [&](httplib::MultipartFormDataItems items) { return cli.Post("/v1/regions:check", items); };
+  const std::string big(2 << 20, '#');
+  struct Case {
+    std::string what;
+    httplib::Result res;
+    int http;
+    std::string message;
+  };
+  Case cases[] = {
+      {"not multipart", cli.Post("/v1/regions:check", "faces=1", "application/x-www-form-urlencoded"), 415, "multipart/form-data"},
+      {"no body", post({{"faces", "1 2 3", "", ""}}), 400, "part 'body'"},
+      {"a mesh line that does not parse", post({{"body", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 q\n", "torso.obj", ""}, {"faces", "0", "", ""}}), 400,
+       "part 'body': torso.obj:4"},
+      {"a face out of range", post({{"body", obj, "rest.obj", ""}, {"faces", "5 2480", "", ""}}), 400,
+       "part 'faces': face 2480 (item 2) is out of range: the body has 2480 faces"},
+      {"a bad number", post({{"body", obj, "rest.obj", ""}, {"faces", "5", "", ""}, {"subdivisions", "two", "", ""}}), 400, "part 'subdivisions': 'two'"},
+      {"an empty region", post({{"body", obj, "rest.obj", ""}, {"faces", "", "", ""}}), 400, "the region is empty"},
+      {"an upload beyond --max-upload-mb", post({{"body", big, "big.obj", ""}, {"faces", "1", "", ""}}), 413, "larger"},
+  };
+  for (const Case& c : cases) {
+    ASSERT_TRUE(c.res) << c.what;
+    EXPECT_EQ(c.res->status, c.http) << c.what << ": " << c.res->body;
+    EXPECT_NE(c.res->body.find(c.message), std::string::npos) << c.what << ": " << c.res->body;
+  }
 }
 
 TEST_F(HttpApi, BadRequestsGetTheirStatusAndAMessageAndTheServerCarriesOn) {
