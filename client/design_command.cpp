@@ -122,10 +122,12 @@ int RunDesign(const DesignOptions& o) {
   // What the job should take (core/beso/quality.h) on this machine, before it starts.
   const Quality quality = QualityOfJob(optimizer.quality());
   const int garment_faces = static_cast<int>(scene.garment.faces.rows());
+  const int simulations = static_cast<int>(MotionsOf(scene).size());
   const JobCostPrediction cost = PredictJobCost({.garment_faces = garment_faces,
                                                  .frames = 0,  // the scene is built: its set-up is spent
                                                  .builtin_body = false,
-                                                 .quality = quality},
+                                                 .quality = quality,
+                                                 .simulations = simulations},
                                                 settings);
   const MachineFactor machine = ReadMachineFactor(LocalCostCalibrationFile());
   const double predicted_s = machine.factor * cost.solves_s(cost.iterations);
@@ -221,7 +223,7 @@ int RunDesign(const DesignOptions& o) {
   const BesoEnd how = BesoEndOf(metrics, settings, job->header.rest_area_m2.sum());
   const std::string why = DescribeBesoEnd(how, metrics, settings);
   // A whole job teaches the cost model this machine's speed (a resumed one ran only part of it).
-  if (!resume && end.iteration >= 1) RecordDesignTime(LocalCostCalibrationFile(), PredictedSolvesSeconds(garment_faces, quality, end.iteration), elapsed);
+  if (!resume && end.iteration >= 1) RecordDesignTime(LocalCostCalibrationFile(), PredictedSolvesSeconds(garment_faces, quality, end.iteration, simulations), elapsed);
   if (o.json || !bar) {
     nlohmann::ordered_json j{{"event", "done"}, {"file", path}, {"iterations", end.iteration + 1}, {"area_fraction", end.area_fraction},
                              {"density_ratio", end.density_ratio}, {"seconds", elapsed}, {"end", why}};

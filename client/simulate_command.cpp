@@ -319,8 +319,10 @@ void AddSimulateCommands(CLI::App& app, int* exit_code) {
       for (const BuiltinSceneInfo::Motion& m : s.motions) {
         char weight[32];
         std::snprintf(weight, sizeof weight, "%g", m.weight);
-        motions += (motions.empty() ? "" : ", ") + m.name + " (" + ToString(m.role) + " " + weight + ")";
+        motions += (motions.empty() ? "" : ", ") + m.name + (s.body_objective.empty() ? " (" + std::string(ToString(m.role)) + " " + weight + ")" : std::string());
       }
+      // A scene of several bodies weighs its bodies as motions: their names and what it weighs of them.
+      if (!s.body_objective.empty()) motions = "bodies " + motions + " (" + s.body_objective + ")";
       std::printf("%-26s %-12s %-7d %-7.2f %-7s %-18s %-9s %-42s %s\n", s.name.c_str(), s.garment.empty() ? "-" : s.garment.c_str(),
                   s.garment_faces, s.budget, s.frames ? std::to_string(s.frames).c_str() : "-", predicted.c_str(), s.symmetric ? "yes" : "no",
                   motions.c_str(), s.description.c_str());

@@ -34,9 +34,10 @@ Quality QualityOfJob(const std::string& name) {
   return q.ok() ? *q : Quality::kStandard;
 }
 
-double PredictedSolvesSeconds(int garment_faces, Quality quality, int later) {
+double PredictedSolvesSeconds(int garment_faces, Quality quality, int later, int simulations) {
   // The solves' share does not depend on the budget (BesoSettings): only the iteration count would.
-  return PredictJobCost({.garment_faces = garment_faces, .frames = 0, .builtin_body = false, .quality = quality}, {}).solves_s(later);
+  return PredictJobCost({.garment_faces = garment_faces, .frames = 0, .builtin_body = false, .quality = quality, .simulations = simulations}, {})
+      .solves_s(later);
 }
 
 std::map<std::string, double> PredictedSceneSeconds(const BuiltinSceneInfo& scene, double machine_factor) {
@@ -44,7 +45,11 @@ std::map<std::string, double> PredictedSceneSeconds(const BuiltinSceneInfo& scen
   settings.budget = scene.budget < 1 ? scene.budget : settings.budget;
   std::map<std::string, double> out;
   for (const QualityPreset& q : QualityPresets())
-    out[q.name] = PredictJobCost({.garment_faces = scene.garment_faces, .frames = scene.frames, .builtin_body = scene.parametric_body, .quality = q.quality},
+    out[q.name] = PredictJobCost({.garment_faces = scene.garment_faces,
+                                  .frames = scene.frames,
+                                  .builtin_body = scene.parametric_body,
+                                  .quality = q.quality,
+                                  .simulations = static_cast<int>(scene.motions.size())},
                                  settings)
                       .total_s(machine_factor);
   return out;

@@ -24,9 +24,9 @@ MachineFactor ReadMachineFactor(const std::string& path);
 Quality QualityOfJob(const std::string& name);
 
 // The reference machine's prediction of a design job's solves on a garment of `garment_faces`: iteration
-// 0 and `later` iterations after it (JobCostPrediction::solves_s), what a finished job's time is learned
-// against.
-double PredictedSolvesSeconds(int garment_faces, Quality quality, int later);
+// 0 and `later` iterations after it (JobCostPrediction::solves_s) of `simulations` garments each (the
+// motions, or bodies, it weighs), what a finished job's time is learned against.
+double PredictedSolvesSeconds(int garment_faces, Quality quality, int later, int simulations = 1);
 
 // A built-in scene's whole design job per preset name (draft, standard, precise) at its budget, its
 // solves at `machine_factor` times the reference machine's: what `kgd scenes` and the web form show.

@@ -125,6 +125,12 @@ std::vector<std::string> BuiltinMotionNames(const std::string& scene) {
       for (const BraceMotion& m : b.motions) names.push_back(m.name);
       return names;
     }
+  for (const SizedScene& z : SizedScenes())
+    if (z.name == scene) {
+      std::vector<std::string> names;
+      for (const BodySize& b : z.sizes) names.push_back(b.name);
+      return names;
+    }
   return {scene};
 }
 
@@ -194,8 +200,12 @@ Status ApplyMotionWeights(const v1::OptimizerSettings& o, SceneSpec* scene) {
   std::vector<std::string> names;
   for (const SceneMotion& m : MotionsOf(*scene)) names.push_back(m.name);
   KGD_RETURN_IF_ERROR(CheckMotionWeightNames(o, names, scene->name));
+  // A scene of several bodies weighs its bodies as motions (MotionsOf).
   for (SceneMotion& m : scene->motions)
     if (const auto it = o.motion_weights().find(m.name); it != o.motion_weights().end()) m.weight = it->second;
+  for (SceneBody& b : scene->bodies)
+    if (const auto it = o.motion_weights().find(b.name); it != o.motion_weights().end()) b.weight = it->second;
+  KGD_RETURN_IF_ERROR(ValidateSceneBodies(*scene).WithContext("motion_weights: "));
   return ValidateSceneMotions(*scene).WithContext("motion_weights: ");
 }
 

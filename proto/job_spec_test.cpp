@@ -486,6 +486,10 @@ TEST(JobSpec, MotionWeightsReachTheirMotionsOrAreRefusedNamingTheMotion) {
   EXPECT_EQ(message(with("knee_brace", {{"kick", 1}})),
             "spec.optimizer: motion_weights: motion 'kick': scene 'knee_brace' has no motion of this name (its motions: 'hyperextend', 'flex')");
   EXPECT_NE(message(with("arm_flexion", {{"arm_flexion", 2}})).find("scene 'arm_flexion' has one motion"), std::string::npos);
+  // A scene of several bodies weighs them by name as motions.
+  EXPECT_TRUE(ValidateJobSpec(with("knee_flexion_sizes", {{"S", 2}, {"L", 0}})).ok());
+  EXPECT_EQ(message(with("knee_flexion_sizes", {{"XL", 1}})),
+            "spec.optimizer: motion_weights: motion 'XL': scene 'knee_flexion_sizes' has no motion of this name (its motions: 'M', 'S', 'L')");
 
   // A scene of two motions over one rest pose (no simulation needed to weigh them).
   SceneSpec scene;
@@ -518,6 +522,16 @@ TEST(JobSpec, MotionWeightsReachTheirMotionsOrAreRefusedNamingTheMotion) {
   one.motions.clear();
   EXPECT_NE(ApplyMotionWeights(with("two", {{"two", 1}}).optimizer(), &one).message().find("scene 'two' has one motion"), std::string::npos);
   EXPECT_TRUE(ApplyMotionWeights(v1::OptimizerSettings(), &one).ok());
+
+  // A scene of several bodies: the weights reach the bodies; the first keeps a weight > 0.
+  Result<SceneSpec> sized = SleeveForBodies({{"M", 0.05, 1}, {"L", 0.055, 1}}, BodyObjective::kWorst);
+  ASSERT_TRUE(sized.ok()) << sized.message();
+  ASSERT_TRUE(ApplyMotionWeights(with("sleeve_for_bodies", {{"L", 0.5}}).optimizer(), &*sized).ok());
+  EXPECT_EQ(sized->bodies[0].weight, 1.0);
+  EXPECT_EQ(sized->bodies[1].weight, 0.5);
+  const Status first = ApplyMotionWeights(with("sleeve_for_bodies", {{"M", 0}}).optimizer(), &*sized);
+  EXPECT_NE(first.message().find("motion_weights: "), std::string::npos) << first.message();
+  EXPECT_NE(first.message().find("'M'"), std::string::npos) << first.message();
 }
 
 }  // namespace

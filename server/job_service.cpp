@@ -83,13 +83,16 @@ ServiceStatus CheckLimits(const ServiceLimits& limits, const v1::JobSpec& spec) 
                                                     " iterations (--max-iterations)");
   if (!spec.has_scene_files()) return ServiceStatus::Ok();
   const v1::SceneFiles& files = spec.scene_files();
-  // The frames of every motion: the body's own and the scene's other motions'.
-  int frames = files.scene().body().frames_size();
-  for (const v1::SceneMotion& m : files.scene().motions()) frames += m.frames_size();
+  // The frames of every motion and body: the body's own, the scene's other motions' and other bodies'.
+  const v1::Scene& scene = files.scene();
+  int frames = scene.body().frames_size();
+  std::string where = "body.frames";
+  for (const v1::SceneMotion& m : scene.motions()) frames += m.frames_size();
+  for (const v1::SceneRangeBody& b : scene.bodies()) frames += b.frames_size();
+  if (scene.motions_size()) where += ", motions[].frames";
+  if (scene.bodies_size()) where += ", bodies[].frames";
   if (limits.max_frames > 0 && frames > limits.max_frames)
-    return over(std::string(files.scene().motions_size() ? "body.frames and motions[].frames: " : "body.frames: ") + std::to_string(frames) +
-                    " frames;",
-                frames, limits.max_frames, "--max-frames");
+    return over(where + ": " + std::to_string(frames) + " frames;", frames, limits.max_frames, "--max-frames");
   for (const auto& [name, bytes] : files.files()) {
     const auto [vertices, faces] = CountMesh(bytes);
     if (limits.max_mesh_vertices > 0 && vertices > limits.max_mesh_vertices)
@@ -181,7 +184,8 @@ struct JobService::Impl {
     // Every stored iteration's time, whichever worker measured it (a resumed job's included).
     double measured_s = 0;
     for (const v1::IterationMetrics& it : *metrics) measured_s += it.total_s();
-    const double predicted_s = PredictedSolvesSeconds(j.garment_faces(), QualityOfJob(j.spec().optimizer().quality()), j.iterations() - 1);
+    const double predicted_s = PredictedSolvesSeconds(j.garment_faces(), QualityOfJob(j.spec().optimizer().quality()), j.iterations() - 1,
+                                                      std::max(1, j.last().motions_size()));
     std::lock_guard lock(calibration_mu);
     RecordDesignTime(CostCalibrationFile(), predicted_s, measured_s);
   }
@@ -515,6 +519,7 @@ ServiceStatus JobService::ListScenes(v1::ListScenesResponse* out) {
       bm->set_weight(m.weight);
     }
     b->set_symmetric(s.symmetric);
+    b->set_body_objective(s.body_objective);
     for (const auto& [preset, seconds] : PredictedSceneSeconds(s, machine.factor)) (*b->mutable_predicted_job_s())[preset] = seconds;
   }
   for (const MeasurementRange& r : BodyMeasurementRanges()) {

@@ -630,7 +630,12 @@ TEST(SecurityLimits, EachLimitIsHitAndNamed) {
   httplib::MultipartFormDataItems motion_frames = {
       {"scene", R"({"body": {"rest": "r.obj", "deformed": "d.obj", "frames": ["a.obj"]},
                     "motions": [{"name": "m"}, {"name": "n", "deformed": "e.obj", "frames": ["f.obj", "g.obj"]}]})", "scene.json", "application/json"}};
-  expect_limit(http.Post("/v1/jobs", motion_frames), "body.frames and motions[].frames: 3 frames; 3 is over the limit of 2 (--max-frames)");
+  expect_limit(http.Post("/v1/jobs", motion_frames), "body.frames, motions[].frames: 3 frames; 3 is over the limit of 2 (--max-frames)");
+  // And those of the scene's other bodies.
+  httplib::MultipartFormDataItems body_frames = {
+      {"scene", R"({"body": {"rest": "r.obj", "deformed": "d.obj", "frames": ["a.obj", "b.obj"]},
+                    "bodies": [{"name": "M"}, {"name": "L", "rest": "s.obj", "deformed": "t.obj", "frames": ["u.obj"]}]})", "scene.json", "application/json"}};
+  expect_limit(http.Post("/v1/jobs", body_frames), "body.frames, bodies[].frames: 3 frames; 3 is over the limit of 2 (--max-frames)");
   // Two jobs wait (no worker here); a third would be over the queue limit.
   const auto first = Outcome(http.Post("/v1/jobs", Job(5), "application/json"));
   ASSERT_EQ(first.first, "OK") << first.second;

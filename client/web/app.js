@@ -96,18 +96,23 @@ function sceneChanged() {
 const roleName = (role) => (role === 'allow' ? 'allowed' : 'resisted');
 
 // A scene of several motions: each with its role and an editable weight (the scene's own to start).
+// A scene of several bodies lists its bodies as motions (each resisted), and what it weighs of them.
 // Servers that do not list motions show none.
 function showMotions(scene) {
   const motions = scene?.motions || [];
+  const bodies = scene?.bodyObjective;
   const list = $('motion-list');
   list.innerHTML = '';
   $('motions-fields').hidden = motions.length < 2;
   if (motions.length < 2) return;
+  $('motions-legend').textContent = bodies
+    ? `Bodies and their weights (≥ 0); the design weighs ${bodies === 'worst' ? 'the worst body' : 'their weighted mean'}`
+    : 'Motions and their weights (≥ 0)';
   for (const m of motions) {
     const id = `motion-weight-${m.name}`;
     const l = document.createElement('label');
     l.htmlFor = id;
-    l.textContent = `${m.name} (${roleName(m.role)})`;
+    l.textContent = bodies ? `body ${m.name}` : `${m.name} (${roleName(m.role)})`;
     const i = document.createElement('input');
     Object.assign(i, { id, type: 'number', min: 0, step: 0.1, value: m.weight ?? 0 });
     i.dataset.motion = m.name;

@@ -61,10 +61,12 @@ JobCostPrediction PredictJobCost(const JobCostInput& in, const BesoSettings& set
                       : in.quality == Quality::kPrecise ? Rates{kPreciseIterationRate, kPreciseIteration0Rate}
                                                         : Rates{kStandardIterationRate, kStandardIteration0Rate};
   JobCostPrediction p;
-  const double v = std::max(in.garment_faces, 1);
-  p.setup_s = in.builtin_body ? kSetupBase_s + kSetupPerFrame_s * in.frames + kSetupPerFace_s * v : kSetupPerFace_s * v;
-  p.iteration0_s = rates.iteration0_s_per_face * v;
-  p.per_iteration_s = rates.per_iteration_s_per_face * v;
+  // Every garment a design weighs (a motion, or a body) is cut and solved alike: K of them cost K
+  // times one (docs/PERFORMANCE.md, "Jobs with several motions").
+  const double v = std::max(in.garment_faces, 1), k = std::max(in.simulations, 1);
+  p.setup_s = in.builtin_body ? kSetupBase_s + kSetupPerFrame_s * in.frames + kSetupPerFace_s * v * k : kSetupPerFace_s * v * k;
+  p.iteration0_s = rates.iteration0_s_per_face * v * k;
+  p.per_iteration_s = rates.per_iteration_s_per_face * v * k;
   const double shrink = std::log(std::max(settings.budget, 1e-6)) / std::log1p(-settings.evolutionary_ratio);
   p.iterations = std::min(settings.max_iterations, static_cast<int>(std::ceil(shrink)) + settings.converge_window + 2);
   return p;

@@ -36,6 +36,7 @@ struct JobCostInput {
   int frames = 0;             // motion frames the job poses the body through (0: rest and deformed pose only)
   bool builtin_body = true;   // the parametric body is built and posed (scene files bring their meshes)
   Quality quality = Quality::kStandard;
+  int simulations = 1;        // garments simulated per iteration: the motions, or the bodies, a design weighs
 };
 
 struct JobCostPrediction {

@@ -47,6 +47,18 @@ TEST(Quality, PredictedJobsGrowWithGarmentPresetAndBudget) {
   EXPECT_EQ(PredictJobCost({.garment_faces = 13936, .frames = 4}, s).iterations, 10);
 }
 
+TEST(Quality, AJobOfSeveralMotionsOrBodiesCostsTheirNumberTimesOnesSolves) {
+  BesoSettings s;
+  const JobCostPrediction one = PredictJobCost({.garment_faces = 5200, .frames = 4}, s);
+  const JobCostPrediction three = PredictJobCost({.garment_faces = 5200, .frames = 12, .simulations = 3}, s);
+  EXPECT_EQ(three.iterations, one.iterations);
+  EXPECT_NEAR(three.iteration0_s, 3 * one.iteration0_s, 1e-12);
+  EXPECT_NEAR(three.per_iteration_s, 3 * one.per_iteration_s, 1e-12);
+  EXPECT_GT(three.setup_s, one.setup_s);
+  // No simulation is no job of zero cost: at least one garment is solved.
+  EXPECT_NEAR(PredictJobCost({.garment_faces = 5200, .frames = 4, .simulations = 0}, s).per_iteration_s, one.per_iteration_s, 1e-12);
+}
+
 TEST(Quality, TheMachineFactorIsAGeometricMeanOfItsJobsWeightedByTheirSizeAndRecency) {
   MachineFactor f;
   f = LearnMachineFactor(f, 10, 20);

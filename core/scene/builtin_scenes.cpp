@@ -159,8 +159,10 @@ std::vector<BuiltinSceneInfo> BuiltinSceneInfos() {
     for (const PaperMotion& m : PaperMotions())
       if (m.name == z.motion) {
         const auto it = size.find(z.name);
-        out.push_back({z.name, m.garment, z.description, m.budget, m.frames, m.subdivisions, true, it == size.end() ? 0 : it->second.first,
-                       it == size.end() ? 0 : it->second.second});
+        out.push_back({z.name, m.garment, z.description, m.budget, m.frames * static_cast<int>(z.sizes.size()), m.subdivisions, true,
+                       it == size.end() ? 0 : it->second.first, it == size.end() ? 0 : it->second.second});
+        for (const BodySize& b : z.sizes) out.back().motions.push_back({b.name, MotionRole::kResist, 1.0});
+        out.back().body_objective = ToString(z.objective);
       }
   for (const std::string& n : BuiltinSceneNames()) {
     bool paper = false;

@@ -32,7 +32,7 @@ struct BuiltinSceneInfo {
   std::string garment;       // the paper's garment region; empty for the simulator checks
   std::string description;
   double budget = 1.0;       // reinforced fraction of the garment area
-  int frames = 0;            // frames of the motion; 0: a static scene
+  int frames = 0;            // frames of the motion, summed over its motions and bodies; 0: a static scene
   int subdivisions = 0;
   bool parametric_body = false;  // made to body measurements (--body, JobSpec.body)
   int garment_faces = 0;         // the garment's size on the default body
@@ -44,6 +44,9 @@ struct BuiltinSceneInfo {
     double weight = 1.0;
   };
   std::vector<Motion> motions;
+  // A scene designed for a range of bodies: what it weighs of them (its `motions` are then the bodies,
+  // as MotionsOf gives them); empty for a scene of one body.
+  std::string body_objective;
   // The garment is mirror symmetric about the body's sagittal plane (x = 0), so that a design job may
   // ask for symmetric designs (--symmetric): the shirt and the shorts, not the one-limb sleeves.
   bool symmetric = false;
