@@ -58,7 +58,7 @@ void AddOptimizerFlags(CLI::App* d, OptimizerFlags* o) {
   // NAME=W: the weight is a finite number here; whether it is >= 0 and the scene has NAME is the job
   // spec's check (proto/job_spec.h), with the same message as the service's.
   d->add_option("--motion-weight", o->motion_weights,
-                "Weight of one of the scene's motions, NAME=W with W >= 0 (repeatable), in place of the scene's own; `kgd scenes` lists the motions")
+                "Weight of one of the scene's motions (or bodies), NAME=W with W >= 0 (repeatable), in place of the scene's own; `kgd scenes` lists them")
       ->check(CLI::Validator(
           [](std::string& item) {
             const size_t eq = item.rfind('=');
