@@ -84,9 +84,11 @@ Result<SymmetryPlane> Plane(const std::string& text) {
   return plane;
 }
 
-// The mirror image of each face: the face whose centroid is nearest the mirrored centroid
-// (PairMirrorFaces' pairing with a tolerance that matches every face; the faces that need a mirror
-// are then held to DefaultMirrorTolerance here, so that a body asymmetric elsewhere still mirrors).
+// Adds to each list its mirror image: for each face f in it the face mirror[f] whose centroid is
+// nearest f's mirrored centroid, and each face g whose mirror[g] is in it (on a body symmetric only
+// within the tolerance, such as the parametric body, the pairing is not one-to-one, and the first
+// alone leaves gaps). mirror: PairMirrorFaces' pairing with a tolerance every face meets; the listed
+// faces are then held to DefaultMirrorTolerance here, so that a body asymmetric elsewhere still mirrors.
 Result<std::vector<int>> MirrorFaces(const TriMesh& body, const std::string& body_name, const SymmetryPlane& plane,
                                      const std::vector<std::vector<int>*>& lists) {
   const Eigen::Vector3d extent = body.vertices.colwise().maxCoeff() - body.vertices.colwise().minCoeff();
@@ -109,6 +111,9 @@ Result<std::vector<int>> MirrorFaces(const TriMesh& body, const std::string& bod
                              Num(tolerance) + " m of its image " + Vec(image) + ")");
       with.insert(m);
     }
+    const std::set<int> listed(list->begin(), list->end());
+    for (size_t g = 0; g < pairing->mirror.size(); ++g)
+      if (listed.count(pairing->mirror[g])) with.insert(static_cast<int>(g));
     list->assign(with.begin(), with.end());
   }
   return pairing->mirror;

@@ -2,9 +2,11 @@
 // body faces painted as a garment region in, what `kgd region` would say of them out, by geometry alone
 // (no simulation). It composes core's pieces, never copies them:
 //   1. the body parsed from its bytes (CheckMeshBytes, ParseMesh, ValidateMesh: core/mesh/mesh_io.h);
-//   2. with `mirror`, every painted face's mirror image added: the body's faces paired about the plane
-//      (PairMirrorFaces, core/beso/design_constraints.h); a painted face whose mirror image lies farther
-//      than DefaultMirrorTolerance(body) from every face's centroid is refused, named (FaceAt);
+//   2. with `mirror`, the painted faces' mirror image added: the body's faces paired about the plane
+//      (PairMirrorFaces, core/beso/design_constraints.h), each painted face's partner and each face
+//      whose partner is painted (the parametric body is symmetric only within the tolerance: its
+//      pairing is not one-to-one); a painted face whose mirror image lies farther than
+//      DefaultMirrorTolerance(body) from every face's centroid is refused, named (FaceAt);
 //   3. the boundary tidied as `kgd region` tidies its rules' faces (TidyRegionBoundary, core/mesh/region.h);
 //   4. CheckRegion (holes filled with `fill_holes`): a refusal is an answer (valid false) whose message
 //      is `kgd region`'s words, "BODY: ...";

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <numeric>
 #include <set>
@@ -139,6 +140,41 @@ TEST(RegionCheck, TheMirrorOfThePaintedHalfIsTheRegionOfTheRules) {
   EXPECT_EQ(a->region.loops.size(), 1u);
   EXPECT_LT(a->faces.size(), half.size()) << "the strip's corners are ears, which tidying removes";
   EXPECT_EQ(a->faces, TidyRegionBoundary(S().body.faces, half));
+}
+
+// A body symmetric only within the tolerance (as the parametric body, whose surface-nets grid is not
+// centred on the plane), where the mirror pairing is not one-to-one: a tube of radius 15 cm whose
+// right side (x > 0) has four times the columns of its left. Its left side's faces of rows 5..14 mirrored
+// are those rows all round: every right face is the partner of none or of a painted face's image.
+TEST(RegionCheck, TheMirrorOnABodySymmetricWithinTheToleranceLeavesNoGap) {
+  constexpr int kRows = 20, kRight = 80, kLeft = 20, kAround = kRight + kLeft;
+  std::ostringstream obj;
+  obj.precision(12);
+  for (int j = 0; j <= kRows; ++j)
+    for (int k = 0; k < kAround; ++k) {
+      const double t = k < kRight ? M_PI * k / kRight : M_PI + M_PI * (k - kRight) / kLeft;
+      obj << "v " << 0.15 * std::sin(t) << " " << 0.02 * j << " " << 0.15 * std::cos(t) << "\n";
+    }
+  std::vector<int> painted, expected;
+  int f = 0;
+  for (int j = 0; j < kRows; ++j)
+    for (int k = 0; k < kAround; ++k, f += 2) {
+      const int v00 = j * kAround + k + 1, v01 = j * kAround + (k + 1) % kAround + 1, v10 = v00 + kAround, v11 = v01 + kAround;
+      obj << "f " << v00 << " " << v01 << " " << v11 << "\nf " << v00 << " " << v11 << " " << v10 << "\n";
+      if (j < 5 || j >= 15) continue;
+      expected.insert(expected.end(), {f, f + 1});
+      if (k >= kRight) painted.insert(painted.end(), {f, f + 1});
+    }
+  RegionCheckRequest r;
+  r.body_name = "tube.obj";
+  r.body_bytes = obj.str();
+  r.faces = Join(painted);
+  r.mirror = "true";
+  Result<RegionCheckAnswer> a = CheckPaintedRegion(r, 1.0);
+  ASSERT_TRUE(a.ok()) << a.message();
+  EXPECT_TRUE(a->valid) << a->refusal;
+  EXPECT_EQ(a->region.loops.size(), 2u);
+  EXPECT_EQ(a->faces, expected);
 }
 
 TEST(RegionCheck, TwoPiecesAreRefusedInTheWordsOfKgdRegion) {
