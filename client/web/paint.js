@@ -33,7 +33,7 @@ export class PaintView extends GarmentView {
     canvas.addEventListener('pointermove', (e) => this.move(e));
     canvas.addEventListener('pointerup', (e) => this.up(e));
     canvas.addEventListener('pointercancel', (e) => this.up(e));
-    canvas.addEventListener('pointerleave', () => { this.cursor.visible = false; this.render(); });
+    canvas.addEventListener('pointerleave', () => { this.cursor.visible = false; this.renderSoon(); });
     this.stroke = null;
     // The brush on the surface under the pointer: a ring of its radius.
     this.cursor = new THREE.Mesh(new THREE.RingGeometry(0.92, 1, 48),
@@ -41,6 +41,12 @@ export class PaintView extends GarmentView {
     this.cursor.visible = false;
     this.cursor.renderOrder = 1;
     this.scene.add(this.cursor);
+  }
+
+  // Draws at the next animation frame, once however many strokes' events come before it.
+  renderSoon() {
+    if (this.frame) return;
+    this.frame = requestAnimationFrame(() => { this.frame = 0; this.render(); });
   }
 
   // Puts the brush ring at hit h (or hides it).
@@ -52,7 +58,7 @@ export class PaintView extends GarmentView {
       this.cursor.lookAt(h.point.clone().add(n));
       this.cursor.scale.setScalar(this.radiusM);
     }
-    this.render();
+    this.renderSoon();
   }
 
   // vertices: Float32Array (V x 3), faces: Uint32Array (F x 3), both of the rest pose.
@@ -201,7 +207,7 @@ export class PaintView extends GarmentView {
       for (let k = 0; k < 3; ++k) c.set(rgb, 9 * t + 3 * k);
     }
     col.needsUpdate = true;
-    this.render();
+    this.renderSoon();
   }
 
   // Page coordinates of a point (m) as the camera shows it (for the browser tests' strokes).

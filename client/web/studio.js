@@ -377,7 +377,6 @@ export class Studio {
       body.frames = frames.map((f, k) => `frames/frame_${String(k + 1).padStart(2, '0')}.${extension(f.name)}`);
       frames.forEach((f, k) => files.set(body.frames[k], f.bytes));
     }
-    body.support_scale = 2.0;
     const subdivisions = Math.max(0, Math.round(Number($('studio-subdivisions').value) || 0));
     const garment = { region: 'garment_region.txt', subdivisions, design: 'all_cloth' };
     files.set('garment_region.txt', list(a.faces));

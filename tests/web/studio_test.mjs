@@ -1,0 +1,189 @@
+// The studio (#studio) in headless Chromium against a real `kgd serve` (tests/web/harness.mjs): the test
+// body pair of tests/data/studio uploaded (a photo as the rest pose refused first, in words); a 5 cm brush
+// click paints the faces within 5 cm of the point, an erase click takes them off, two patches apart are
+// refused in `kgd region`'s words in the status box. Half the region of sleeve_rules.txt (its faces on
+// the +x side) painted with pointer strokes, mirrored, attachment bands at the rules' width: the status
+// box says valid with two loops; 'Save scene' downloads a zip whose face lists equal those `kgd region`
+// writes with the same rules, whose poses are the uploads and whose scene.json is
+// tests/data/studio/scene.json's; 'Submit' runs the job, shown in the jobs view, and its cut files download.
+//   node tests/web/studio_test.mjs --kgd build/client/kgd --artifacts build/test-artifacts/web/studio
+import { execFileSync } from 'node:child_process';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { runBrowserTest, repo, arg, apiJson, waitForEnd } from './harness.mjs';
+
+const { unzipSync } = await import(path.join(repo, 'client/web/node_modules/fflate/esm/index.mjs')).catch(() => ({}));
+const data = arg('--data', path.join(repo, 'tests/data/studio'));
+const kgd = arg('--kgd', path.join(repo, 'build/client/kgd'));
+const readList = (text) => text.split('\n').map((l) => l.trim()).filter((l) => l && !l.startsWith('#')).map(Number);
+const sameList = (a, b) => a.length === b.length && a.every((x, i) => x === b[i]);
+
+// The region and bands `kgd region` makes with the rules (one argument a line) and --attach WIDTH.
+const rules = fs.readFileSync(path.join(data, 'sleeve_rules.txt'), 'utf8').split('\n').filter((l) => l.trim() && !l.trim().startsWith('#')).flatMap((l) => l.trim().split(/\s+/));
+const expectedScene = JSON.parse(fs.readFileSync(path.join(data, 'scene.json'), 'utf8'));
+const attachIndex = rules.indexOf('--attach');
+const widthM = attachIndex >= 0 ? Number(rules[attachIndex + 1]) : 0.02;
+const regionRules = attachIndex >= 0 ? rules.filter((_, i) => i !== attachIndex && i !== attachIndex + 1) : rules;
+const tmp = fs.mkdtempSync(path.join(os.tmpdir(), 'kgd_studio_test_'));
+execFileSync(kgd, ['region', path.join(data, 'rest.obj'), ...regionRules, '--attach', String(widthM), '--out', path.join(tmp, 'expected')], { stdio: 'pipe' });
+const expectedFaces = readList(fs.readFileSync(path.join(tmp, 'expected.faces.txt'), 'utf8'));
+const expectedBands = readList(fs.readFileSync(path.join(tmp, 'expected.attach.txt'), 'utf8'));
+
+await runBrowserTest('studio', async ({ page, base, check, until, artifacts }) => {
+  if (!unzipSync) return check(false, 'fflate is installed (npm ci --prefix client/web)');
+  await page.goto(`${base}#studio`);
+  await until('the studio', () => page.evaluate(() => !!window.kgdStudio && !document.getElementById('studio').hidden));
+  check(await page.isHidden('#jobs-view'), '#studio shows the studio in the jobs view\'s place');
+
+  // A photo as the rest pose: refused on the page, naming the file.
+  const png = path.join(tmp, 'rest.obj');
+  fs.writeFileSync(png, Buffer.from([0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 13, 0x49, 0x48, 0x44, 0x52]));
+  await page.setInputFiles('#studio-rest', png);
+  const refusal = await until('the refusal', () => page.textContent('#studio-file-error'), 5000);
+  check(refusal.startsWith('rest.obj is not an OBJ or PLY mesh (line 1:') && !/[\u0000-\u0008]/.test(refusal), `a PNG chosen as the rest pose is refused: "${refusal}"`);
+
+  // The body pair.
+  await page.setInputFiles('#studio-rest', path.join(data, 'rest.obj'));
+  await page.setInputFiles('#studio-deformed', path.join(data, 'deformed.obj'));
+  const nf = await until('the body in the view', () => page.evaluate(() => window.kgdStudio.paint.faceCount), 10000);
+  const restFaces = fs.readFileSync(path.join(data, 'rest.obj'), 'utf8').split('\n').filter((l) => l.startsWith('f ')).reduce((n, l) => n + l.trim().split(/\s+/).length - 3, 0);
+  check(nf === restFaces && (await page.textContent('#studio-file-error')) === '', `the rest pose's ${nf} triangles are shown (the file's polygons fanned: ${restFaces})`);
+
+  // One click of a 5 cm brush on the chest: the face under the pointer and every face whose centroid lies
+  // within 5 cm of the point (the surface there is one piece); an erase click clears them.
+  const canvas = await page.locator('#studio-canvas').boundingBox();
+  const cx = canvas.x + canvas.width / 2, cy = canvas.y + canvas.height / 2;
+  await page.fill('#studio-radius', '5');
+  await page.dispatchEvent('#studio-radius', 'input');
+  await page.mouse.click(cx, cy);
+  const brush = await page.evaluate(([x, y]) => {
+    const p = window.kgdStudio.paint, h = p.hit(x, y), c = p.centroids, painted = p.layerFaces('region');
+    const dist = (t) => Math.hypot(c[3 * t] - h.point.x, c[3 * t + 1] - h.point.y, c[3 * t + 2] - h.point.z);
+    let near = 0, nearPainted = 0;
+    for (let t = 0; t < p.faceCount; ++t) if (dist(t) <= 0.05) { near++; nearPainted += p.layers.region[t]; }
+    return { face: h.face, painted: painted.length, hasFace: painted.includes(h.face), far: Math.max(...painted.map(dist)), near, nearPainted };
+  }, [cx, cy]);
+  check(brush.hasFace && brush.far <= 0.05 && brush.near > 1 && brush.nearPainted === brush.near && brush.painted === brush.near,
+    `a 5 cm brush click paints ${brush.painted} faces: face ${brush.face} under the pointer and all ${brush.near} within 5 cm, none beyond (${(100 * brush.far).toFixed(1)} cm)`);
+  await page.check('#studio-erase');
+  await page.mouse.click(cx, cy);
+  check((await page.evaluate(() => window.kgdStudio.paint.layerFaces('region').length)) === 0, 'an erase click at the same point leaves nothing painted');
+  await page.uncheck('#studio-erase');
+
+  // Two patches apart: refused in kgd region's words, in the status box; Clear empties it.
+  await page.mouse.click(cx, cy);
+  await page.mouse.click(cx, cy - 0.3 * canvas.height);
+  const settledAnswer = () => until('the region checked', () => page.evaluate(() => { const s = window.kgdStudio.studio; return !s.timer && !s.checking && s.answer ? s.answer : null; }), 20000);
+  const refused = await settledAnswer();
+  const refusedText = await page.textContent('#studio-status');
+  check(!refused.valid && /the region is 2 edge-connected pieces, not one: \d+ faces with face \d+ at \(/.test(refused.refusal) && refusedText.includes(refused.refusal)
+    && await page.getAttribute('#studio-status', 'data-valid') === 'false', `two patches apart are refused in the status box: "${refused.refusal}"`);
+  await page.click('#studio-clear');
+  await until('nothing painted', () => page.evaluate(() => { const s = window.kgdStudio.studio; return !s.timer && !s.checking && !s.answer; }), 10000);
+  check((await page.textContent('#studio-status')).startsWith('Paint the garment region'), 'Clear leaves nothing painted and says so');
+
+  // Half the region: its faces with a centroid on the +x side, painted by pointer strokes from views
+  // round that side (then along a face's normal for a face they all miss), a brush of 5 cm, 2.5, 1.2
+  // and 0.1 cm in turn at the faces whose brush (5 % wider) stays inside the half and paints faces left.
+  const half = await page.evaluate((faces) => { const c = window.kgdStudio.paint.centroids; return faces.filter((t) => c[3 * t] > 0); }, expectedFaces);
+  const strokes = [];
+  const views = [[0, 0, 1], [1, 0, 1], [1, 0, 0], [1, 0, -1], [0, 0, -1], [1, 1, 1], [1, 1, -1], [1, -1, 1], [1, -1, -1], 'face'];
+  for (const radiusCm of [5, 2.5, 1.2, 0.1]) {
+    await page.fill('#studio-radius', String(radiusCm));
+    await page.dispatchEvent('#studio-radius', 'input');
+    let events = 0;
+    for (const view of views) {
+      for (;;) {
+        // The points this view shows, each a face's centroid whose brush paints faces left.
+        const left = await page.evaluate(({ half, view, radius }) => {
+          const p = window.kgdStudio.paint, c = p.centroids, inHalf = new Set(half);
+          const todo = new Set(half.filter((t) => !p.layers.region[t]));
+          if (!todo.size) return { points: [] };
+          if (view === 'face') p.lookAtFace(todo.values().next().value, 0.4);
+          else p.lookFrom(view);
+          const points = [];
+          for (const t of view === 'face' ? [todo.values().next().value] : [...todo]) {
+            if (!todo.has(t)) continue;
+            const at = { x: c[3 * t], y: c[3 * t + 1], z: c[3 * t + 2] };
+            if (!p.facesNear(t, at, 1.05 * radius).every((u) => inHalf.has(u))) continue;
+            const s = p.screenPoint(at.x, at.y, at.z);
+            if (!s.inside || p.hit(s.x, s.y)?.face !== t) continue;
+            points.push({ t, x: s.x, y: s.y });
+            for (const u of p.facesNear(t, at, radius)) todo.delete(u);
+          }
+          return { points };
+        }, { half, view, radius: radiusCm / 100 });
+        if (!left.points.length) break;
+        const pts = left.points.sort((a, b) => a.y - b.y || a.x - b.x);
+        await page.mouse.move(pts[0].x, pts[0].y);
+        await page.mouse.down();
+        for (const q of pts.slice(1)) await page.mouse.move(q.x, q.y);
+        await page.mouse.up();
+        events += pts.length;
+        if (view !== 'face') break;
+      }
+    }
+    strokes.push(`${events} at ${radiusCm} cm`);
+  }
+  const painted = await page.evaluate(() => window.kgdStudio.paint.layerFaces('region'));
+  check(sameList(painted, half), `pointer strokes (${strokes.join(', ')}) paint the ${half.length} faces of the region's +x half (${painted.length} painted)`);
+  await page.evaluate(() => window.kgdStudio.paint.setView('front'));
+  await page.screenshot({ path: path.join(artifacts, 'half.png'), fullPage: true });
+
+  // Mirror, bands at the rules' width.
+  await page.evaluate((cmWidth) => { const s = document.getElementById('studio-band-width'); s.value = String(cmWidth); s.dispatchEvent(new Event('input')); }, 100 * widthM);
+  await page.click('#studio-mirror');
+  const answer = await until('the mirrored region checked', () => page.evaluate(() => {
+    const s = window.kgdStudio.studio;
+    return !s.timer && !s.checking && s.answer?.mirrored === false && s.answer?.bands ? s.answer : null;
+  }), 20000);
+  const status = await page.textContent('#studio-status');
+  check(await page.getAttribute('#studio-status', 'data-valid') === 'true' && answer.loops.length === 2 && /2 boundary loops: [\d.]+ cm, [\d.]+ cm/.test(status)
+    && /Predicted job time \(standard\): about \d+/.test(status),
+    `after Mirror the status box says valid, two loops and a predicted time: "${status}"`);
+  check(sameList(answer.faces, expectedFaces), `the mirrored region is sleeve_rules.txt's (${answer.faces.length} faces, kgd region ${expectedFaces.length})`);
+  await page.screenshot({ path: path.join(artifacts, 'mirrored.png'), fullPage: true });
+
+  // Save scene: the zip of the folder `kgd scene export` writes.
+  await page.fill('#studio-budget', String(expectedScene.budget));
+  const [download] = await Promise.all([page.waitForEvent('download', { timeout: 20000 }), page.click('#studio-save')]);
+  const zipPath = path.join(artifacts, download.suggestedFilename());
+  await download.saveAs(zipPath);
+  const zip = unzipSync(new Uint8Array(fs.readFileSync(zipPath)));
+  const text = (name) => (zip[name] ? new TextDecoder().decode(zip[name]) : '');
+  const scene = JSON.parse(text('scene.json') || '{}');
+  const region = readList(text(scene.garment?.region || 'garment_region.txt'));
+  const bands = readList(text(scene.attachments?.body_faces || 'attachment_body_faces.txt'));
+  check(sameList(region, expectedFaces), `the saved garment.region equals kgd region's (${region.length} and ${expectedFaces.length} faces)`);
+  check(sameList(bands, expectedBands), `the saved attachments.body_faces equal kgd region --attach ${widthM}'s (${bands.length} and ${expectedBands.length} faces)`);
+  const same = (name, file) => zip[name] && Buffer.compare(Buffer.from(zip[name]), fs.readFileSync(path.join(data, file))) === 0;
+  check(same(scene.body?.rest, 'rest.obj') && same(scene.body?.deformed, 'deformed.obj'), `the saved body poses are the uploads (${scene.body?.rest}, ${scene.body?.deformed})`);
+  // The rest of scene.json: the hand-made one's (the poses named as `kgd scene export` names them).
+  const strip = (s) => JSON.stringify({ ...s, name: undefined, description: undefined, body: { ...s.body, rest: undefined, deformed: undefined } });
+  check(strip(scene) === strip(expectedScene) && scene.body.rest === 'body_rest.obj' && scene.body.deformed === 'body_deformed.obj',
+    `scene.json is tests/data/studio/scene.json's but for its name, description and the poses' file names${strip(scene) === strip(expectedScene) ? '' : `: ${strip(scene)} vs ${strip(expectedScene)}`}`);
+
+  // Submit: the jobs view shows the job; it runs; its cut files download.
+  await page.selectOption('#studio-quality', 'draft');
+  await page.fill('#studio-iterations', '3');
+  await page.fill('#studio-label', 'studio');
+  await page.click('#studio-submit');
+  const id = await until('the job in the jobs view', () => page.evaluate(() => (!document.getElementById('jobs-view').hidden && window.kgd.state.selected) || null), 20000);
+  const job = await waitForEnd(base, id, 120000);
+  check(job.state === 'SUCCEEDED' && job.spec.label === 'studio' && job.spec.optimizer.maxIterations === 3,
+    `the submitted job ${id} ends ${job.state}${job.failure ? ` (${job.failure})` : ''} after ${job.iterations} iterations`);
+  await until('the cut file links', () => page.evaluate(() => !!document.querySelector('#downloads a[href*="cut/report.json"]')), 20000);
+  const href = await page.getAttribute('#downloads a[href*="cut/report.json"]', 'href');
+  const made = await fetch(new URL(href, base));
+  check(made.ok, `the page's cut file link ${href} answers ${made.status}${made.ok ? '' : `: ${await made.text()}`}`);
+  const [cut] = await Promise.all([page.waitForEvent('download', { timeout: 30000 }), page.click('#downloads a[href*="cut/report.json"]')]);
+  const reportPath = path.join(artifacts, cut.suggestedFilename());
+  await cut.saveAs(reportPath);
+  const report = JSON.parse(fs.readFileSync(reportPath, 'utf8'));
+  const last = (await apiJson(base, `v1/jobs/${id}`)).iterations - 1;
+  check(cut.suggestedFilename().startsWith(`job-${id}-iteration-`) && Number.isInteger(report.iteration) && report.iteration <= last,
+    `its cut files download (${cut.suggestedFilename()}, iteration ${report.iteration} of 0..${last})`);
+  await page.screenshot({ path: path.join(artifacts, 'job.png'), fullPage: true });
+  fs.rmSync(tmp, { recursive: true, force: true });
+});
