@@ -5,7 +5,8 @@
 // the +x side) painted with pointer strokes, mirrored, attachment bands at the rules' width: the status
 // box says valid with two loops; 'Save scene' downloads a zip whose face lists equal those `kgd region`
 // writes with the same rules, whose poses are the uploads and whose scene.json is
-// tests/data/studio/scene.json's; 'Submit' runs the job, shown in the jobs view, and its cut files download.
+// tests/data/studio/scene.json's; a keep-in click is saved as the garment faces under it; 'Submit' runs
+// the job, shown in the jobs view, and its cut files download.
 //   node tests/web/studio_test.mjs --kgd build/client/kgd --artifacts build/test-artifacts/web/studio
 import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
@@ -163,6 +164,21 @@ await runBrowserTest('studio', async ({ page, base, check, until, artifacts }) =
   const strip = (s) => JSON.stringify({ ...s, name: undefined, description: undefined, body: { ...s.body, rest: undefined, deformed: undefined } });
   check(strip(scene) === strip(expectedScene) && scene.body.rest === 'body_rest.obj' && scene.body.deformed === 'body_deformed.obj',
     `scene.json is tests/data/studio/scene.json's but for its name, description and the poses' file names${strip(scene) === strip(expectedScene) ? '' : `: ${strip(scene)} vs ${strip(expectedScene)}`}`);
+
+  // Keep-in painted inside the region (a 3 cm click): the garment faces under it (4 per body face, one
+  // subdivision) saved as garment.keep_in.
+  await page.check('input[name=studio-layer][value=keepIn]');
+  await page.fill('#studio-radius', '3');
+  await page.dispatchEvent('#studio-radius', 'input');
+  await page.evaluate(() => window.kgdStudio.paint.lookFrom([0, 0, 1]));
+  await page.mouse.click(cx, cy);
+  const kept = await until('the keep-in checked', () => page.evaluate(() => { const s = window.kgdStudio.studio; return !s.timer && !s.checking && s.answer?.keepIn?.length ? s.answer : null; }), 20000);
+  const [again] = await Promise.all([page.waitForEvent('download', { timeout: 20000 }), page.click('#studio-save')]);
+  const zip2 = unzipSync(new Uint8Array(fs.readFileSync(await again.path())));
+  const scene2 = JSON.parse(new TextDecoder().decode(zip2['scene.json']));
+  const keepIn = readList(new TextDecoder().decode(zip2[scene2.garment.keep_in] || new Uint8Array()));
+  check(kept.valid && kept.keepIn.length > 1 && kept.keepInGarmentFaces.length === 4 * kept.keepIn.length && sameList(keepIn, kept.keepInGarmentFaces),
+    `a keep-in click marks ${kept.keepIn.length} body faces, saved as their ${keepIn.length} garment faces (garment.keep_in ${scene2.garment.keep_in})`);
 
   // Submit: the jobs view shows the job; it runs; its cut files download.
   await page.selectOption('#studio-quality', 'draft');
