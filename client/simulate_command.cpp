@@ -173,6 +173,44 @@ void PrintHuman(const SceneSpec& scene, const SimulationResult& r) {
   if (r.inverted_faces > 0) std::printf("inverted faces        %d\n", r.inverted_faces);
 }
 
+// The scene's other motions (or bodies), each simulated in its deformed pose with the same design
+// (SceneInMotion / SceneOnBody): what a design job weighs beside the scene's own motion.
+struct OtherMotion {
+  SceneMotion motion;
+  SimulationResult result;
+};
+Result<std::vector<OtherMotion>> SimulateOtherMotions(const SceneSpec& scene) {
+  std::vector<OtherMotion> out;
+  const std::vector<SceneMotion> motions = MotionsOf(scene);
+  for (size_t k = 1; k < motions.size(); ++k) {
+    const std::string what = (scene.bodies.empty() ? "motion '" : "body '") + motions[k].name + "': ";
+    Result<SceneSpec> posed = scene.bodies.empty() ? SceneInMotion(scene, static_cast<int>(k)) : SceneOnBody(scene, static_cast<int>(k));
+    if (!posed.ok()) return posed.status().WithContext(what);
+    posed->design = scene.design;
+    posed->solver = scene.solver;
+    Result<SimulationResult> r = SimulateScene(*posed);
+    if (!r.ok()) return r.status().WithContext(what);
+    out.push_back({motions[k], std::move(r).value()});
+  }
+  return out;
+}
+
+void PrintOtherMotions(const SceneSpec& scene, const std::vector<OtherMotion>& others) {
+  if (others.empty()) return;
+  const std::vector<SceneMotion> motions = MotionsOf(scene);
+  std::printf("%s (the same design in each deformed pose; the lines above are %s '%s'):\n", scene.bodies.empty() ? "other motions" : "other bodies",
+              scene.bodies.empty() ? "motion" : "body", motions[0].name.c_str());
+  for (const OtherMotion& o : others) {
+    const SimulationResult& r = o.result;
+    std::printf("  %-18s %s, weight %g: %s, reinforced energy %.6g J, total %.6g J", o.motion.name.c_str(), ToString(o.motion.role), o.motion.weight,
+                ToString(r.solve.status), r.reinforced_energy_J, r.solve.energy_J);
+    if (r.skin.pressure_Pa.size())
+      std::printf(", skin pressure peak %.3g kPa (%.3g mmHg), p95 %.3g kPa (%.3g mmHg)", 1e-3 * r.skin.peak_Pa, kMmHgPerPa * r.skin.peak_Pa,
+                  1e-3 * r.skin.p95_Pa, kMmHgPerPa * r.skin.p95_Pa);
+    std::printf("\n");
+  }
+}
+
 Status WriteResultPly(const std::string& path, const SceneSpec& scene, const SimulationResult& r) {
   return WriteGarmentPly(path, r.positions, scene.garment.faces, scene.design, r.face_density_Pa);
 }
@@ -256,13 +294,33 @@ int RunSimulate(const SimulateOptions& o) {
     return 2;
   }
   setup.model_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_simulate).count() - r->solve.seconds;
+  Result<std::vector<OtherMotion>> others = SimulateOtherMotions(*scene);
+  if (!others.ok()) {
+    std::cerr << "kgd simulate: " << others.message() << "\n";
+    return 2;
+  }
   if (o.json) {
     nlohmann::json j = ResultJson(*scene, *r);
     AddBodyVolumeJson(*scene, &j);
     if (o.profile) j["profile"] = ProfileJson(setup, r->solve);
+    // A scene of several motions (bodies): each, the scene's own first.
+    if (!others->empty()) {
+      const std::vector<SceneMotion> motions = MotionsOf(*scene);
+      nlohmann::json list = nlohmann::json::array();
+      auto add = [&](const SceneMotion& m, const nlohmann::json& result) {
+        nlohmann::json e{{"name", m.name}, {"role", ToString(m.role)}, {"weight", m.weight}};
+        e.update(result);
+        e.erase("scene");
+        list.push_back(e);
+      };
+      add(motions[0], j);
+      for (const OtherMotion& other : *others) add(other.motion, ResultJson(*scene, other.result));
+      j[scene->bodies.empty() ? "motions" : "bodies"] = list;
+    }
     std::cout << j.dump() << std::endl;
   } else {
     PrintHuman(*scene, *r);
+    PrintOtherMotions(*scene, *others);
     PrintBodyVolume(*scene);
     if (o.profile) PrintProfile(setup, r->solve);
   }
@@ -274,7 +332,9 @@ int RunSimulate(const SimulateOptions& o) {
     }
     if (!o.json) std::printf("wrote                 %s\n", o.out.c_str());
   }
-  return r->solve.at_equilibrium() ? 0 : 3;
+  bool all = r->solve.at_equilibrium();
+  for (const OtherMotion& other : *others) all &= other.result.solve.at_equilibrium();
+  return all ? 0 : 3;
 }
 
 }  // namespace

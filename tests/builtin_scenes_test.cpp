@@ -26,6 +26,8 @@
 #include "core/scene/simulate.h"
 #include "core/scene/scene_cache.h"
 #include "core/scene/builtin_scenes.h"
+#include "core/scene/motion_test_scene.h"
+#include "core/scene/scene_file.h"
 
 namespace kgd {
 namespace {
@@ -419,6 +421,41 @@ TEST(BuiltinScenes, ExportThenSimulateReproducesTheBuiltIn) {
   for (size_t k = 0; k < 4; ++k)
     EXPECT_NEAR(jfa["frames"][k]["energy_J"].get<double>(), jfb["frames"][k]["energy_J"].get<double>(),
                 1e-12 * jfa["frames"][k]["energy_J"].get<double>());
+}
+
+// `kgd simulate` of a scene of several motions solves each in its deformed pose with the same design,
+// the scene's own first: the JSON's motions are those SceneInMotion gives, each named with its role.
+TEST(BuiltinScenes, SimulateSolvesEveryMotionOfAScene) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "kgd_simulate_motions";
+  std::filesystem::remove_all(dir);
+  Result<SceneSpec> scene = ThreeMotionSleeve();
+  ASSERT_TRUE(scene.ok()) << scene.message();
+  ASSERT_TRUE(ExportScene(*scene, dir.string()).ok());
+  int code = -1;
+  const std::string out = RunKgd("simulate " + (dir / "scene.json").string() + " --design all_reinforced --json", &code);
+  ASSERT_EQ(code, 0) << out;
+  const nlohmann::json j = nlohmann::json::parse(out.substr(out.find('{')));
+  ASSERT_EQ(j["motions"].size(), 3u) << out;
+  const std::vector<std::pair<std::string, std::string>> expected = {{"flex", "resist"}, {"extend", "allow"}, {"flex_more", "allow"}};
+  for (int k = 0; k < 3; ++k) {
+    const nlohmann::json& m = j["motions"][k];
+    EXPECT_EQ(m["name"], expected[k].first);
+    EXPECT_EQ(m["role"], expected[k].second);
+    Result<SceneSpec> posed = SceneInMotion(*scene, k);
+    ASSERT_TRUE(posed.ok()) << posed.message();
+    posed->design.assign(posed->design.size(), kReinforced);
+    Result<SimulationResult> r = SimulateScene(*posed);
+    ASSERT_TRUE(r.ok()) << r.message();
+    // The exported meshes carry their coordinates to the OBJ files' digits: equal to 1e-6.
+    EXPECT_NEAR(m["reinforced_energy_J"].get<double>(), r->reinforced_energy_J, 1e-6 * r->reinforced_energy_J) << expected[k].first;
+  }
+  EXPECT_EQ(j["motions"][0]["energy_J"], j["energy_J"]);
+  // The two allowed motions bend the other way and further: other energies than the resisted one's.
+  EXPECT_NE(j["motions"][1]["reinforced_energy_J"], j["motions"][0]["reinforced_energy_J"]);
+  // The human form names them too.
+  const std::string human = RunKgd("simulate " + (dir / "scene.json").string(), &code);
+  EXPECT_NE(human.find("other motions"), std::string::npos) << human;
+  EXPECT_NE(human.find("flex_more"), std::string::npos) << human;
 }
 
 // `kgd body` writes a posed parametric body that imports like any other: here with the arm sleeve's
