@@ -13,6 +13,7 @@
 #include "proto/connection.h"
 #include "server/job_results.h"
 #include "server/region_check.h"
+#include "server/scene_body.h"
 // After Eigen (through the headers above): a macro of the socket headers it pulls in breaks Eigen's.
 #include <httplib.h>
 #include <sys/socket.h>
@@ -136,6 +137,7 @@ struct HttpGateway::Impl {
   int port = 0;
   std::string host;
   int listening_socket = -1;  // the socket the library made last (set in its socket-options callback)
+  SceneBodies scene_bodies;   // the built-in scenes' posed bodies, for GET /v1/scenes/{name}/body/...
 
   // The request's caller: the Authorization header's bearer token, or for GET (the browser's
   // EventSource and download links cannot send headers) the cookie kgd_token.
@@ -216,7 +218,7 @@ struct HttpGateway::Impl {
   void GarmentRoutes();     // /v1/jobs/{id}/garment/..., /v1/jobs/{id}/body/...
   void EvaluationRoutes();  // /v1/jobs/{id}/evaluation[/frames/...|/baselines/...]
   void DesignFileRoutes();  // /v1/jobs/{id}/design-file
-  void RegionRoutes();      // /v1/regions:check
+  void RegionRoutes();      // /v1/regions:check, /v1/scenes/{name}/body/{pose}.obj
   void Watch(const httplib::Request& req, httplib::Response& res);
   void CreateJob(const httplib::Request& req, httplib::Response& res);
 };
@@ -455,6 +457,7 @@ void HttpGateway::Impl::RegionRoutes() {
     r.symmetry_plane = part("symmetryPlane");
     r.subdivisions = part("subdivisions");
     r.frames = part("frames");
+    r.motions = part("motions");
     r.budget = part("budget");
     v1::ListScenesResponse scenes;  // for the machine factor
     if (!Answered(res, service->ListScenes(&scenes))) return;
@@ -485,6 +488,20 @@ void HttpGateway::Impl::RegionRoutes() {
       j["keepInGarmentFaces"] = a->keep_in_garment_faces;
     }
     res.set_content(j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "application/json");
+  });
+  // A built-in scene's parametric body, posed as the scene poses it; the query's parameters are its
+  // measurements, named as in JobSpec.body (height_m) or in lowerCamelCase (heightM).
+  http.Get(R"(/v1/scenes/([^/]+)/body/([^/]+)\.obj)", [this](const Request& req, Response& res) {
+    std::vector<std::string> measurements;
+    for (const auto& [param, value] : req.params) {
+      std::string name;
+      for (const char c : param) name += std::isupper(static_cast<unsigned char>(c)) ? std::string("_") + char(std::tolower(c)) : std::string(1, c);
+      measurements.push_back(name + "=" + value);
+    }
+    std::string obj;
+    if (!Answered(res, scene_bodies.Obj(req.matches[1], measurements, req.matches[2], &obj))) return;
+    res.set_header("Content-Disposition", "attachment; filename=\"" + std::string(req.matches[1]) + "-" + std::string(req.matches[2]) + ".obj\"");
+    res.set_content(obj, "model/obj");
   });
 }
 

@@ -38,9 +38,12 @@
 //        job-{id}-iteration-{k}-{file}, k the iteration exported (the last stored for n = -1)
 //   POST /v1/regions:check                               the studio page's check of a painted garment region:
 //        multipart parts body (OBJ/PLY), faces, keepOut, keepIn, attachWidthM, fillHoles, mirror, symmetryPlane,
-//        subdivisions, frames, budget; JSON: the region after mirror/tidy/fill, valid or CheckRegion's refusal
+//        subdivisions, frames, motions, budget; JSON: the region after mirror/tidy/fill, valid or CheckRegion's refusal
 //        (kgd region's words), area, loops, bands, subdivided counts, keep lists as garment faces, predicted
 //        job seconds (server/region_check.h). Geometry only; no gRPC equivalent
+//   GET  /v1/scenes/{name}/body/{rest,deformed,frame_K}.obj?height_m=&...   a built-in scene's parametric body
+//        made to the measurements in the query (JobSpec.body's names, or lowerCamelCase: heightM) and posed as
+//        the scene poses it, OBJ (server/scene_body.h; the first request of a body takes a job's set-up time)
 //   GET  /                                               the web page (static files of web_dir)
 //
 // The handlers only translate (path and query to request, status to HTTP status, messages to JSON,

@@ -144,7 +144,9 @@ Result<RegionCheckAnswer> CheckPaintedRegion(const RegionCheckRequest& r, double
   Result<SymmetryPlane> plane = Plane(r.symmetry_plane);
   Result<int> subdivisions = r.subdivisions.empty() ? Result<int>(1) : Integer("subdivisions", r.subdivisions, 0, 4);
   Result<int> frames = r.frames.empty() ? Result<int>(0) : Integer("frames", r.frames, 0, 100000);
-  for (const Status& st : {mirror.status(), fill.status(), plane.status(), subdivisions.status(), frames.status()}) KGD_RETURN_IF_ERROR(st);
+  Result<int> motions = r.motions.empty() ? Result<int>(1) : Integer("motions", r.motions, 1, 1000);
+  for (const Status& st : {mirror.status(), fill.status(), plane.status(), subdivisions.status(), frames.status(), motions.status()})
+    KGD_RETURN_IF_ERROR(st);
   BesoSettings settings;
   if (!r.budget.empty()) {
     Result<double> b = Number("budget", r.budget);
@@ -179,7 +181,8 @@ Result<RegionCheckAnswer> CheckPaintedRegion(const RegionCheckRequest& r, double
   auto predict = [&](int garment_faces) {
     for (const QualityPreset& q : QualityPresets())
       a.predicted_job_s[q.name] =
-          PredictJobCost({.garment_faces = garment_faces, .frames = *frames, .builtin_body = false, .quality = q.quality}, settings).total_s(machine_factor);
+          PredictJobCost({.garment_faces = garment_faces, .frames = *frames, .builtin_body = false, .quality = q.quality, .simulations = *motions}, settings)
+              .total_s(machine_factor);
   };
   const int per_face = 1 << (2 * *subdivisions);
   if (a.faces.empty()) {

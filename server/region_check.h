@@ -41,6 +41,7 @@ struct RegionCheckRequest {
   std::string symmetry_plane;  // "X,Y,Z,NX,NY,NZ"; empty: the parametric body's sagittal plane x = 0
   std::string subdivisions;    // integer in [0, 4]; empty: 1
   std::string frames;          // integer >= 0; empty: 0
+  std::string motions;         // the motions a design weighs, integer >= 1; empty: 1
   std::string budget;          // reinforced area fraction in (0, 1]; empty: BesoSettings' default
 };
 

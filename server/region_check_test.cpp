@@ -115,6 +115,9 @@ TEST(RegionCheck, ATubeHasTwoLoopsAndTheAreaBandsAndCountsOfCoreOnTheSameFaces) 
   EXPECT_LT(a->predicted_job_s.at("standard"), a->predicted_job_s.at("precise"));
   Result<RegionCheckAnswer> slower = CheckPaintedRegion(r, 3.0);
   EXPECT_GT(slower->predicted_job_s.at("standard"), a->predicted_job_s.at("standard"));
+  r.motions = "2";  // a design that weighs two motions simulates two garments per iteration
+  Result<RegionCheckAnswer> two = CheckPaintedRegion(r, 1.0);
+  EXPECT_GT(two->predicted_job_s.at("standard"), a->predicted_job_s.at("standard"));
 }
 
 TEST(RegionCheck, TheMirrorOfThePaintedHalfIsTheRegionOfTheRules) {

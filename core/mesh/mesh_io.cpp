@@ -509,6 +509,10 @@ Status WritePly(std::ostream& out, const std::string& path, const Positions& x, 
 Status WriteObj(const std::string& path, const Positions& x, const Faces& faces) {
   std::ofstream out(path);
   if (!out) return Status::Error(path + ": cannot open for writing");
+  return WriteObj(out, path, x, faces);
+}
+
+Status WriteObj(std::ostream& out, const std::string& path, const Positions& x, const Faces& faces) {
   out.precision(17);  // round-trips doubles exactly: an exported scene reproduces its source
   for (Eigen::Index v = 0; v < x.rows(); ++v) out << "v " << x(v, 0) << ' ' << x(v, 1) << ' ' << x(v, 2) << '\n';
   for (Eigen::Index f = 0; f < faces.rows(); ++f)

@@ -55,8 +55,10 @@ Status WriteGarmentPly(const std::string& path, const Positions& x, const Faces&
 Status WriteGarmentPly(std::ostream& out, const std::string& name, const Positions& x, const Faces& faces, const std::vector<uint8_t>& design,
                        const Eigen::VectorXd& energy_density_Pa);
 
-// Writes an OBJ file (vertices with 9 significant digits, 1-based faces).
+// Writes an OBJ file (vertices with 17 significant digits: doubles round-trip, 1-based faces).
 Status WriteObj(const std::string& path, const Positions& x, const Faces& faces);
+// The same OBJ to a stream (e.g. an HTTP download); `name` is for messages.
+Status WriteObj(std::ostream& out, const std::string& name, const Positions& x, const Faces& faces);
 
 // Reads a text file of integers, one per line (blank lines and lines starting with '#' ignored).
 // Errors name the file and the line.
