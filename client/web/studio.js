@@ -320,10 +320,12 @@ export class Studio {
     if (!this.plane()) return this.error('Mirror: the symmetry plane is not six numbers x, y, z, nx, ny, nz with a normal');
     const a = await this.check({ mirror: true });
     if (!a) return;
-    // The painted faces become the mirrored region (and keep-out / keep-in their mirrored lists).
-    this.paint.setLayerFaces('region', a.faces || []);
-    this.paint.setLayerFaces('keepOut', a.keepOut || []);
-    this.paint.setLayerFaces('keepIn', a.keepIn || []);
+    // The mirror images join what is painted (the region's as the server tidied them; keep-out and
+    // keep-in as it echoed them, mirrored); nothing painted is lost.
+    const union = (layer, list) => this.paint.setLayerFaces(layer, [...this.paint.layerFaces(layer), ...(list || [])]);
+    union('region', a.faces);
+    union('keepOut', a.keepOut);
+    union('keepIn', a.keepIn);
     await this.check();
   }
 
@@ -340,7 +342,8 @@ export class Studio {
     }
     box.dataset.valid = a.valid ? 'true' : 'false';
     const n = (a.faces || []).length, s = Number($('studio-subdivisions').value) || 0;
-    line(`Region: ${n} body faces, ${((a.areaM2 ?? 0) * 1e4).toFixed(0)} cm²${a.mirrored ? ', mirrored' : ''}${a.filledFaces?.length ? `, ${a.filledFaces.length} faces filled` : ''}.`);
+    const area = a.valid ? `, ${((a.areaM2 ?? 0) * 1e4).toFixed(0)} cm²` : '';
+    line(`Region: ${n} body faces${area}${a.mirrored ? ', mirrored' : ''}${a.filledFaces?.length ? `, ${a.filledFaces.length} faces filled` : ''}.`);
     if (!a.valid) { line(a.refusal || 'refused', 'refusal'); return; }
     line(`After ${s} subdivision${s === 1 ? '' : 's'}: ${a.subdividedVertices ?? '?'} vertices, ${a.subdividedFaces ?? '?'} faces.`);
     const loops = a.loops || [];
