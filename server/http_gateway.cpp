@@ -459,6 +459,8 @@ void HttpGateway::Impl::RegionRoutes() {
     r.frames = part("frames");
     r.motions = part("motions");
     r.budget = part("budget");
+    r.max_mesh_vertices = service->options().limits.max_mesh_vertices;
+    r.max_mesh_faces = service->options().limits.max_mesh_faces;
     v1::ListScenesResponse scenes;  // for the machine factor
     if (!Answered(res, service->ListScenes(&scenes))) return;
     Result<RegionCheckAnswer> a = CheckPaintedRegion(r, scenes.machine_factor());

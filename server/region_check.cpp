@@ -138,6 +138,12 @@ Result<RegionCheckAnswer> CheckPaintedRegion(const RegionCheckRequest& r, double
   if (!body.ok()) return Status::Error(Part("body") + ": " + body.message());
   KGD_RETURN_IF_ERROR(ValidateMesh(body->vertices, body->faces, name).WithContext(Part("body") + ": "));
   const int nf = static_cast<int>(body->faces.rows());
+  auto over = [](const std::string& what, int64_t value, int64_t limit, const char* flag) {
+    return Status::Error(what + " " + std::to_string(value) + " is over the limit of " + std::to_string(limit) + " (" + flag + ")");
+  };
+  if (r.max_mesh_vertices > 0 && body->vertices.rows() > r.max_mesh_vertices)
+    return over(Part("body") + ": " + name + ": vertices", body->vertices.rows(), r.max_mesh_vertices, "--max-mesh-vertices");
+  if (r.max_mesh_faces > 0 && nf > r.max_mesh_faces) return over(Part("body") + ": " + name + ": faces", nf, r.max_mesh_faces, "--max-mesh-faces");
 
   Result<bool> mirror = Flag("mirror", r.mirror);
   Result<bool> fill = Flag("fillHoles", r.fill_holes);
@@ -212,6 +218,9 @@ Result<RegionCheckAnswer> CheckPaintedRegion(const RegionCheckRequest& r, double
     if (!bands.ok()) return Status::Error(Part("attachWidthM") + ": " + name + ": " + bands.message());
     a.bands = std::move(bands).value();
   }
+  if (const int64_t n = static_cast<int64_t>(a.faces.size()) * per_face; r.max_mesh_faces > 0 && n > r.max_mesh_faces)
+    return over(Part("subdivisions") + ": the garment's faces (" + std::to_string(a.faces.size()) + " x 4^" + std::to_string(*subdivisions) + ")", n,
+                r.max_mesh_faces, "--max-mesh-faces");
   Result<GarmentCut> cut = CutGarment(body->faces, body->vertices, a.faces, {}, *subdivisions, Part("faces"), "");
   if (!cut.ok()) return Status::Error(cut.message());
   a.subdivided_vertices = static_cast<int>(cut->garment.vertices.rows());

@@ -18,6 +18,7 @@
 // parse, a face index and the mesh's face count, a number that is not one, an empty region.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
@@ -43,6 +44,9 @@ struct RegionCheckRequest {
   std::string frames;          // integer >= 0; empty: 0
   std::string motions;         // the motions a design weighs, integer >= 1; empty: 1
   std::string budget;          // reinforced area fraction in (0, 1]; empty: BesoSettings' default
+  // The service's limits (ServiceLimits, --max-mesh-vertices, --max-mesh-faces; 0: none) on the body and
+  // on the garment cut from it (faces x 4^subdivisions): beyond them the check is refused.
+  int64_t max_mesh_vertices = 0, max_mesh_faces = 0;
 };
 
 struct RegionCheckAnswer {

@@ -239,6 +239,15 @@ TEST(RegionCheck, BadInputIsNamed) {
   r.attach_width_m = "2cm";
   EXPECT_NE(refused(r).find("part 'attachWidthM': '2cm' is not a finite number"), std::string::npos) << refused(r);
   r = S().Request(band);
+  r.max_mesh_faces = 3000;
+  r.subdivisions = "2";
+  EXPECT_NE(refused(r).find("part 'subdivisions': the garment's faces (800 x 4^2) 12800 is over the limit of 3000 (--max-mesh-faces)"), std::string::npos)
+      << refused(r);
+  r.max_mesh_faces = 2000;
+  EXPECT_NE(refused(r).find("part 'body': rest.obj: faces 2480 is over the limit of 2000 (--max-mesh-faces)"), std::string::npos) << refused(r);
+  r.max_mesh_vertices = 1000;
+  EXPECT_NE(refused(r).find("part 'body': rest.obj: vertices 1242 is over the limit of 1000 (--max-mesh-vertices)"), std::string::npos) << refused(r);
+  r = S().Request(band);
   r.keep_out = "0";
   EXPECT_NE(refused(r).find("part 'keepOut': face 0 at"), std::string::npos) << refused(r);
 

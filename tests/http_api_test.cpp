@@ -669,7 +669,7 @@ TEST_F(HttpApi, ARegionCheckOfThePaintedHalfMirroredIsTheRegionAndBandsOfKgdRegi
   EXPECT_NE(words.find("piece"), std::string::npos) << words;
 }
 
-TEST_F(HttpApi, ARegionCheckNamesThePartOfABadRequest) {
+TEST_F(HttpApi, ARegionCheckAndASceneBodyNameThePartOfABadRequest) {
   auto cli = Service().Client();
   const std::string obj = ReadText(std::string(KGD_SOURCE_DIR) + "/tests/data/studio/rest.obj");
   auto post = [&](httplib::MultipartFormDataItems items) { return cli.Post("/v1/regions:check", items); };
@@ -690,6 +690,10 @@ TEST_F(HttpApi, ARegionCheckNamesThePartOfABadRequest) {
       {"a bad number", post({{"body", obj, "rest.obj", ""}, {"faces", "5", "", ""}, {"subdivisions", "two", "", ""}}), 400, "part 'subdivisions': 'two'"},
       {"an empty region", post({{"body", obj, "rest.obj", ""}, {"faces", "", "", ""}}), 400, "the region is empty"},
       {"an upload beyond --max-upload-mb", post({{"body", big, "big.obj", ""}, {"faces", "1", "", ""}}), 413, "larger"},
+      // The built-in body of a scene (GET /v1/scenes/{name}/body/...): measurements named in lowerCamelCase too.
+      {"a scene body of an unknown scene", cli.Get("/v1/scenes/moonwalk/body/rest.obj"), 404, "there is no built-in scene 'moonwalk'"},
+      {"a scene body without the parametric body", cli.Get("/v1/scenes/pull_test_line/body/rest.obj"), 404, "has no parametric body"},
+      {"a scene body of an unknown measurement", cli.Get("/v1/scenes/arm_flexion/body/rest.obj?shoeSize=9"), 400, "'shoe_size' is not known"},
   };
   for (const Case& c : cases) {
     ASSERT_TRUE(c.res) << c.what;
