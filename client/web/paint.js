@@ -1,8 +1,8 @@
 // The studio's 3D body to paint on (view3d.js's renderer, camera, lights and framing): a left-button
 // drag paints the faces whose centroid lies within the brush radius of the point under the pointer and
 // that the surface joins to the face hit within that radius; the face hit is always painted. Right-button drag orbits (Shift + right: pan), the wheel zooms; so does
-// Alt + left drag. Layers: the garment region, attachment bands, keep-out and keep-in, each a 0/1 per
-// body face, drawn in colours of their own.
+// Alt + left drag. Layers: the garment region, attachment bands, keep-out and keep-in (the last three
+// painted on the region's faces only), each a 0/1 per body face, drawn in colours of their own.
 import * as THREE from 'three';
 import { GarmentView } from './view3d.js';
 
@@ -133,13 +133,14 @@ export class PaintView extends GarmentView {
     const h = this.hit(clientX, clientY);
     this.showCursor(h);
     if (!h) return false;
-    const value = this.erase ? 0 : 1, layer = this.layers[this.layer];
+    const value = this.erase ? 0 : 1, layer = this.layers[this.layer], region = this.layers.region;
     let changed = false;
     for (const t of this.facesNear(h.face, h.point, this.radiusM)) {
+      // Bands, keep-out and keep-in lie in the region: painted on its faces only.
+      if (this.layer !== 'region' && !region[t]) continue;
       if (layer[t] !== value) { layer[t] = value; changed = true; }
-      // Erasing the region erases what lies in it; bands, keep-out and keep-in lie in the region.
+      // Erasing the region erases what lies in it.
       if (this.erase && this.layer === 'region') for (const l of LAYERS) if (this.layers[l][t]) { this.layers[l][t] = 0; changed = true; }
-      if (!this.erase && this.layer !== 'region' && !this.layers.region[t]) { this.layers.region[t] = 1; changed = true; }
     }
     if (changed) this.recolour();
     return changed;

@@ -9,18 +9,32 @@ import { zipSync } from 'fflate';
 import * as api from './api.js';
 import { PaintView } from './paint.js';
 import { parseMesh, samePoseProblem } from './mesh_file.js';
-import { readable } from './job_status.js';
+import { readable, checkBody } from './job_status.js';
 
 const TEMPLATE = `
 <aside class="studio-side">
   <section>
     <h2>Body</h2>
-    <label for="studio-rest">Rest pose (OBJ or PLY, metres)</label>
-    <input id="studio-rest" type="file" accept=".obj,.ply">
-    <label for="studio-deformed">Deformed pose (the motion's end, the rest pose's mesh moved)</label>
-    <input id="studio-deformed" type="file" accept=".obj,.ply">
-    <label for="studio-frames">Frames of the motion (optional, in order)</label>
-    <input id="studio-frames" type="file" accept=".obj,.ply" multiple>
+    <div class="controls" role="radiogroup" aria-label="Which body">
+      <label><input type="radio" name="studio-source" value="upload" checked> Upload its poses</label>
+      <label><input type="radio" name="studio-source" value="builtin"> Built-in body</label>
+    </div>
+    <div id="studio-upload">
+      <label for="studio-rest">Rest pose (OBJ or PLY, metres)</label>
+      <input id="studio-rest" type="file" accept=".obj,.ply">
+      <label for="studio-deformed">Deformed pose (the motion's end, the rest pose's mesh moved)</label>
+      <input id="studio-deformed" type="file" accept=".obj,.ply">
+      <label for="studio-frames">Frames of the motion (optional, in order)</label>
+      <input id="studio-frames" type="file" accept=".obj,.ply" multiple>
+    </div>
+    <div id="studio-builtin" hidden>
+      <label for="studio-builtin-scene">Motion (a built-in scene's, posed as it poses the parametric body)</label>
+      <select id="studio-builtin-scene"></select>
+      <details><summary>Body measurements (m)</summary><div id="studio-builtin-measurements" class="grid2"></div></details>
+      <label><input id="studio-builtin-frames" type="checkbox"> With the motion's frames</label>
+      <button id="studio-builtin-load" type="button">Make the body</button>
+      <p id="studio-builtin-note" class="hint" aria-live="polite"></p>
+    </div>
     <fieldset>
       <legend>Motions and their roles</legend>
       <p class="hint">The first motion (the deformed pose above) is resisted.</p>
@@ -101,7 +115,7 @@ const SCENE_DEFAULTS = {
 const $ = (id) => document.getElementById(id);
 const extension = (name) => (name.toLowerCase().endsWith('.ply') ? 'ply' : 'obj');
 const cm = (m) => `${(100 * m).toFixed(1)} cm`;
-const duration = (s) => (s < 90 ? `${Math.round(s)} s` : s < 5400 ? `${Math.round(s / 60)} min` : `${(s / 3600).toFixed(1)} h`);
+const duration = (s) => (s < 1 ? 'under a second' : s < 90 ? `about ${Math.round(s)} s` : s < 5400 ? `about ${Math.round(s / 60)} min` : `about ${(s / 3600).toFixed(1)} h`);
 
 export class Studio {
   // root: the element the view fills; onSubmitted(job): a job was created.
@@ -129,6 +143,14 @@ export class Studio {
   }
 
   wire() {
+    for (const r of this.root.querySelectorAll('input[name=studio-source]'))
+      r.addEventListener('change', () => {
+        const builtin = this.root.querySelector('input[name=studio-source]:checked').value === 'builtin';
+        $('studio-upload').hidden = builtin;
+        $('studio-builtin').hidden = !builtin;
+        if (builtin) this.loadScenes();
+      });
+    $('studio-builtin-load').addEventListener('click', () => this.loadBuiltin());
     $('studio-rest').addEventListener('change', () => this.loadRest());
     $('studio-deformed').addEventListener('change', () => this.loadPose('deformed'));
     $('studio-frames').addEventListener('change', () => this.loadFrames());
@@ -176,16 +198,82 @@ export class Studio {
   async loadRest() {
     this.fileError('');
     const file = $('studio-rest').files[0];
-    this.files.rest = null;
-    this.answer = null;
     if (!file) return;
     const r = await this.readMesh(file);
+    this.setRest(r);
+    // Poses chosen before the rest pose are checked against it now.
+    if (r.mesh && this.files.deformed) await this.loadPose('deformed');
+  }
+
+  // The rest pose read ({ name, bytes, mesh } or { error }): the body shown, nothing painted.
+  setRest(r) {
+    this.files.rest = null;
+    this.answer = null;
     if (r.error) { this.fileError(r.error); this.paint.clearBody(); this.showAnswer(); return; }
     this.files.rest = r;
     this.paint.setBody(r.mesh.vertices, r.mesh.faces);
-    // Poses chosen before the rest pose are checked against it now.
-    if (this.files.deformed) await this.loadPose('deformed');
     this.changed();
+  }
+
+  // -- The built-in body: a built-in scene's parametric body, posed as the scene poses it --------------
+
+  async loadScenes() {
+    if (this.scenes) return;
+    try {
+      const r = await api.scenes();
+      this.scenes = (r.scenes || []).filter((x) => x.parametricBody);
+      const sel = $('studio-builtin-scene');
+      sel.innerHTML = '';
+      for (const x of this.scenes) sel.append(Object.assign(document.createElement('option'), { value: x.name, textContent: `${x.name}${x.frames ? ` (${x.frames} frames)` : ''}` }));
+      const box = $('studio-builtin-measurements');
+      box.innerHTML = '';
+      for (const m of r.bodyMeasurements || []) {
+        if (m.name === 'resolution_m') continue;
+        const id = `studio-body-${m.name}`;
+        box.append(Object.assign(document.createElement('label'), { htmlFor: id, textContent: m.name.replace(/_m$/, '').replaceAll('_', ' ') }));
+        const i = Object.assign(document.createElement('input'), { id, type: 'number', min: m.min, max: m.max, step: 0.005, placeholder: m.defaultValue });
+        i.dataset.measurement = m.name;
+        box.append(i);
+      }
+      this.measurements = r.bodyMeasurements || [];
+    } catch (e) {
+      this.scenes = null;
+      $('studio-builtin-note').textContent = `cannot list the built-in scenes: ${e.message}`;
+    }
+  }
+
+  async loadBuiltin() {
+    this.fileError('');
+    const name = $('studio-builtin-scene').value, note = $('studio-builtin-note');
+    if (!name) return;
+    const inputs = [...this.root.querySelectorAll('#studio-builtin-measurements input')];
+    const bad = checkBody(inputs, this.measurements || []);
+    if (bad) return this.fileError(bad.message);
+    const query = inputs.filter((i) => i.value.trim() !== '').map((i) => `${i.dataset.measurement}=${encodeURIComponent(i.value.trim())}`).join('&');
+    const scene = this.scenes.find((x) => x.name === name);
+    const poses = ['rest', 'deformed', ...($('studio-builtin-frames').checked ? Array.from({ length: scene?.frames || 0 }, (_, k) => `frame_${k + 1}`) : [])];
+    $('studio-builtin-load').disabled = true;
+    note.textContent = `making ${name}'s body (the first time for a scene and measurements takes as long as a job's set-up)…`;
+    try {
+      const read = [];
+      for (const pose of poses) {
+        const bytes = await api.getUint8(`/v1/scenes/${name}/body/${pose}.obj${query ? `?${query}` : ''}`);
+        const fileName = `${name}_${pose}.obj`;
+        const mesh = parseMesh(fileName, bytes);
+        if (mesh.error) throw new Error(mesh.error);
+        read.push({ name: fileName, bytes, mesh });
+      }
+      this.setRest(read[0]);
+      this.files.deformed = read[1];
+      this.files.frames = read.slice(2);
+      $('studio-motion-name').value = name;
+      note.textContent = `${name}'s body: ${read[0].mesh.faces.length / 3} faces${read.length > 2 ? `, ${read.length - 2} frames` : ''}.`;
+    } catch (e) {
+      note.textContent = '';
+      this.fileError(`${name}'s body: ${e.message}`);
+    } finally {
+      $('studio-builtin-load').disabled = false;
+    }
   }
 
   // The rest pose's mesh moved, or a message naming both files.
@@ -295,7 +383,10 @@ export class Studio {
     if (mirror) form.append('mirror', 'true');
     if (plane) form.append('symmetryPlane', plane.join(','));
     form.append('subdivisions', String(Math.max(0, Math.round(Number($('studio-subdivisions').value) || 0))));
+    // For the predicted time: every motion's frames (the further motions' deformed poses alone), and the
+    // motions a design weighs.
     form.append('frames', String(this.files.frames.length));
+    form.append('motions', String(1 + this.motions.filter((m) => m.row.isConnected).length));
     const budget = Number($('studio-budget').value);
     if (budget > 0 && budget <= 1) form.append('budget', String(budget));
     const { answer, failure } = await api.postForm('/v1/regions:check', form).then((a) => ({ answer: a }), (e) => ({ failure: e.message }));
@@ -354,7 +445,7 @@ export class Studio {
       line(bands.length ? `Attachment bands: ${bands.length}, ${faces.size} faces, ${(bands.reduce((x, b) => x + (b.areaM2 ?? 0), 0) * 1e4).toFixed(0)} cm².` : 'No attachment bands (width 0).');
     } else line(`Attachment bands as painted: ${this.paint.layerFaces('band').length} faces.`);
     const q = $('studio-quality').value, t = a.predictedJobS?.[q];
-    if (t) line(`Predicted job time (${q}): about ${duration(t)}.`);
+    if (t) line(`Predicted job time (${q}): ${duration(t)}.`);
   }
 
   // -- Scene files ------------------------------------------------------------------------------------

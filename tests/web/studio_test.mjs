@@ -6,7 +6,8 @@
 // box says valid with two loops; 'Save scene' downloads a zip whose face lists equal those `kgd region`
 // writes with the same rules, whose poses are the uploads and whose scene.json is
 // tests/data/studio/scene.json's; a keep-in click is saved as the garment faces under it; 'Submit' runs
-// the job, shown in the jobs view, and its cut files download.
+// the job, shown in the jobs view, and its cut files download. The built-in body option shows the
+// parametric body the server poses and paints on it.
 //   node tests/web/studio_test.mjs --kgd build/client/kgd --artifacts build/test-artifacts/web/studio
 import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
@@ -53,6 +54,7 @@ await runBrowserTest('studio', async ({ page, base, check, until, artifacts }) =
 
   // One click of a 5 cm brush on the chest: the face under the pointer and every face whose centroid lies
   // within 5 cm of the point (the surface there is one piece); an erase click clears them.
+  await page.locator('#studio-canvas').scrollIntoViewIfNeeded();
   const canvas = await page.locator('#studio-canvas').boundingBox();
   const cx = canvas.x + canvas.width / 2, cy = canvas.y + canvas.height / 2;
   await page.fill('#studio-radius', '5');
@@ -87,6 +89,7 @@ await runBrowserTest('studio', async ({ page, base, check, until, artifacts }) =
   // Half the region: its faces with a centroid on the +x side, painted by pointer strokes from views
   // round that side (then along a face's normal for a face they all miss), a brush of 5 cm, 2.5, 1.2
   // and 0.1 cm in turn at the faces whose brush (5 % wider) stays inside the half and paints faces left.
+  await page.locator('#studio-canvas').scrollIntoViewIfNeeded();
   const half = await page.evaluate((faces) => { const c = window.kgdStudio.paint.centroids; return faces.filter((t) => c[3 * t] > 0); }, expectedFaces);
   const strokes = [];
   const views = [[0, 0, 1], [1, 0, 1], [1, 0, 0], [1, 0, -1], [0, 0, -1], [1, 1, 1], [1, 1, -1], [1, -1, 1], [1, -1, -1], 'face'];
@@ -170,8 +173,14 @@ await runBrowserTest('studio', async ({ page, base, check, until, artifacts }) =
   await page.check('input[name=studio-layer][value=keepIn]');
   await page.fill('#studio-radius', '3');
   await page.dispatchEvent('#studio-radius', 'input');
-  await page.evaluate(() => window.kgdStudio.paint.lookFrom([0, 0, 1]));
-  await page.mouse.click(cx, cy);
+  await page.locator('#studio-canvas').scrollIntoViewIfNeeded();
+  const front = await page.evaluate((faces) => {
+    const p = window.kgdStudio.paint, c = p.centroids;
+    p.lookFrom([0, 0, 1]);
+    const t = faces.filter((f) => Math.abs(c[3 * f + 1] - 1.1) < 0.03).sort((a, b) => c[3 * b + 2] - c[3 * a + 2])[0];
+    return p.screenPoint(c[3 * t], c[3 * t + 1], c[3 * t + 2]);
+  }, expectedFaces);
+  await page.mouse.click(front.x, front.y);
   const kept = await until('the keep-in checked', () => page.evaluate(() => { const s = window.kgdStudio.studio; return !s.timer && !s.checking && s.answer?.keepIn?.length ? s.answer : null; }), 20000);
   const [again] = await Promise.all([page.waitForEvent('download', { timeout: 20000 }), page.click('#studio-save')]);
   const zip2 = unzipSync(new Uint8Array(fs.readFileSync(await again.path())));
@@ -201,5 +210,28 @@ await runBrowserTest('studio', async ({ page, base, check, until, artifacts }) =
   check(cut.suggestedFilename().startsWith(`job-${id}-iteration-`) && Number.isInteger(report.iteration) && report.iteration <= last,
     `its cut files download (${cut.suggestedFilename()}, iteration ${report.iteration} of 0..${last})`);
   await page.screenshot({ path: path.join(artifacts, 'job.png'), fullPage: true });
+
+  // The built-in body: knee_flexion's parametric body at a height of 1.70 m (the default body, whose
+  // scene the scene cache holds after a first run), the poses the server makes
+  // (GET /v1/scenes/knee_flexion/body/...), painted with a click and checked.
+  await page.goto(`${base}#studio`);
+  await page.check('input[name=studio-source][value=builtin]');
+  await until('the built-in scenes', () => page.evaluate(() => document.querySelectorAll('#studio-builtin-scene option').length > 0), 10000);
+  await page.selectOption('#studio-builtin-scene', 'knee_flexion');
+  await page.click('#studio-builtin summary');
+  await page.fill('#studio-body-height_m', '1.7');
+  await page.click('#studio-builtin-load');
+  await until('the built-in body', () => page.evaluate(() => /^knee_flexion's body: /.test(document.getElementById('studio-builtin-note').textContent) || document.getElementById('studio-file-error').textContent), 120000);
+  const served = new TextDecoder().decode(await (await fetch(`${base}v1/scenes/knee_flexion/body/rest.obj?height_m=1.7`)).arrayBuffer());
+  const servedFaces = served.split('\n').filter((l) => l.startsWith('f ')).length;
+  const shown = await page.evaluate(() => ({ faces: window.kgdStudio.paint.faceCount, error: document.getElementById('studio-file-error').textContent, note: document.getElementById('studio-builtin-note').textContent }));
+  await page.check('input[name=studio-layer][value=region]');
+  await page.locator('#studio-canvas').scrollIntoViewIfNeeded();
+  const box = await page.locator('#studio-canvas').boundingBox();
+  await page.mouse.click(box.x + box.width / 2, box.y + box.height / 2);
+  const builtin = await until('the built-in body\'s region checked', () => page.evaluate(() => { const s = window.kgdStudio.studio; return !s.timer && !s.checking && s.answer ? s.answer : null; }), 20000);
+  check(!shown.error && shown.faces === servedFaces && builtin.valid && builtin.faces.length > 1,
+    `the built-in body (${shown.note || shown.error}) shows the served rest pose's ${servedFaces} faces; a click paints a valid region of ${builtin.faces.length} faces`);
+  await page.screenshot({ path: path.join(artifacts, 'builtin.png'), fullPage: true });
   fs.rmSync(tmp, { recursive: true, force: true });
 });
