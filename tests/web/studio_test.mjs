@@ -1,13 +1,13 @@
 // The studio (#studio) in headless Chromium against a real `kgd serve` (tests/web/harness.mjs): the test
-// body pair of tests/data/studio uploaded (a photo as the rest pose refused first, in words); a 5 cm brush
-// click paints the faces within 5 cm of the point, an erase click takes them off, two patches apart are
-// refused in `kgd region`'s words in the status box. Half the region of sleeve_rules.txt (its faces on
-// the +x side) painted with pointer strokes, mirrored, attachment bands at the rules' width: the status
-// box says valid with two loops; 'Save scene' downloads a zip whose face lists equal those `kgd region`
-// writes with the same rules, whose poses are the uploads and whose scene.json is
-// tests/data/studio/scene.json's; a keep-in click is saved as the garment faces under it; 'Submit' runs
-// the job, shown in the jobs view, and its cut files download. The built-in body option shows the
-// parametric body the server poses and paints on it.
+// body pair of tests/data/studio uploaded (a photo as the rest pose and a deformed pose of another mesh
+// refused first, in words); a 5 cm brush click paints the faces within 5 cm of the point, an erase click
+// takes them off, two patches apart are refused in `kgd region`'s words in the status box. Half the
+// region of sleeve_rules.txt (its faces on the +x side) painted with pointer strokes, mirrored,
+// attachment bands at the rules' width: the status box says valid with two loops; 'Save scene'
+// downloads a zip whose face lists equal those `kgd region` writes with the same rules, whose poses are
+// the uploads and whose scene.json is tests/data/studio/scene.json's; a keep-in click is saved as the
+// garment faces under it; 'Submit' runs the job, shown in the jobs view, and its cut files download.
+// The built-in body option shows the parametric body the server poses, and a click paints on it.
 //   node tests/web/studio_test.mjs --kgd build/client/kgd --artifacts build/test-artifacts/web/studio
 import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
@@ -45,8 +45,14 @@ await runBrowserTest('studio', async ({ page, base, check, until, artifacts }) =
   const refusal = await until('the refusal', () => page.textContent('#studio-file-error'), 5000);
   check(refusal.startsWith('rest.obj is not an OBJ or PLY mesh (line 1:') && !/[\u0000-\u0008]/.test(refusal), `a PNG chosen as the rest pose is refused: "${refusal}"`);
 
-  // The body pair.
+  // The body pair; a deformed pose of another mesh refused first, naming both files.
   await page.setInputFiles('#studio-rest', path.join(data, 'rest.obj'));
+  const other = path.join(tmp, 'triangle.obj');
+  fs.writeFileSync(other, 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n');
+  await page.setInputFiles('#studio-deformed', other);
+  const poseRefusal = await until('the pose refusal', () => page.textContent('#studio-file-error'), 5000);
+  check(poseRefusal === 'triangle.obj has 3 vertices and 1 faces, the rest pose rest.obj 1242 and 2480: a pose must be the rest pose\'s mesh moved',
+    `a deformed pose of another mesh is refused: "${poseRefusal}"`);
   await page.setInputFiles('#studio-deformed', path.join(data, 'deformed.obj'));
   const nf = await until('the body in the view', () => page.evaluate(() => window.kgdStudio.paint.faceCount), 10000);
   const restFaces = fs.readFileSync(path.join(data, 'rest.obj'), 'utf8').split('\n').filter((l) => l.startsWith('f ')).reduce((n, l) => n + l.trim().split(/\s+/).length - 3, 0);
