@@ -314,11 +314,22 @@ export class Studio {
     const row = document.createElement('div');
     row.className = 'studio-motion grid2';
     row.innerHTML = `<label>Motion ${k}: deformed pose</label><input type="file" accept=".obj,.ply" data-field="file">
+      <label>Its frames (optional)</label><input type="file" accept=".obj,.ply" multiple data-field="frames">
       <label>Name</label><input type="text" data-field="name" value="motion_${k}">
       <label>Role</label><select data-field="role"><option value="resist">resist</option><option value="allow">allow</option></select>
       <label>Weight (≥ 0)</label><input type="number" min="0" step="0.1" value="1" data-field="weight">
       <button type="button" data-field="remove">Remove</button>`;
-    const m = { row, file: null };
+    const m = { row, file: null, frames: [] };
+    row.querySelector('[data-field=frames]').addEventListener('change', async (e) => {
+      this.fileError('');
+      m.frames = [];
+      for (const f of e.target.files) {
+        const r = await this.readPose(f);
+        if (r.error) { this.fileError(r.error); m.frames = []; return; }
+        m.frames.push(r);
+      }
+      this.changed();
+    });
     row.querySelector('[data-field=file]').addEventListener('change', async (e) => {
       this.fileError('');
       m.file = null;
@@ -328,9 +339,10 @@ export class Studio {
       if (r.error) this.fileError(r.error);
       else m.file = r;
     });
-    row.querySelector('[data-field=remove]').addEventListener('click', () => { row.remove(); this.motions = this.motions.filter((x) => x !== m); });
+    row.querySelector('[data-field=remove]').addEventListener('click', () => { row.remove(); this.motions = this.motions.filter((x) => x !== m); this.changed(); });
     $('studio-motions').append(row);
     this.motions.push(m);
+    this.changed();
   }
 
   // -- The server's check -----------------------------------------------------------------------------
@@ -383,10 +395,10 @@ export class Studio {
     if (mirror) form.append('mirror', 'true');
     if (plane) form.append('symmetryPlane', plane.join(','));
     form.append('subdivisions', String(Math.max(0, Math.round(Number($('studio-subdivisions').value) || 0))));
-    // For the predicted time: every motion's frames (the further motions' deformed poses alone), and the
-    // motions a design weighs.
-    form.append('frames', String(this.files.frames.length));
-    form.append('motions', String(1 + this.motions.filter((m) => m.row.isConnected).length));
+    // For the predicted time: every motion's frames, and the motions a design weighs.
+    const further = this.motions.filter((m) => m.row.isConnected);
+    form.append('frames', String(further.reduce((n, m) => n + m.frames.length, this.files.frames.length)));
+    form.append('motions', String(1 + further.length));
     const budget = Number($('studio-budget').value);
     if (budget > 0 && budget <= 1) form.append('budget', String(budget));
     const { answer, failure } = await api.postForm('/v1/regions:check', form).then((a) => ({ answer: a }), (e) => ({ failure: e.message }));
@@ -496,7 +508,12 @@ export class Studio {
           if (!m.file) throw new Error(`motion '${mname}': choose its deformed pose`);
           const path = `motions/${k + 1}/deformed.${extension(m.file.name)}`;
           files.set(path, m.file.bytes);
-          scene.motions.push({ name: mname, role: field('role').value, weight: weight(field('weight'), `motion '${mname}'`), deformed: path });
+          const motion = { name: mname, role: field('role').value, weight: weight(field('weight'), `motion '${mname}'`), deformed: path };
+          if (m.frames.length) {
+            motion.frames = m.frames.map((f, j) => `motions/${k + 1}/frame_${String(j + 1).padStart(2, '0')}.${extension(f.name)}`);
+            m.frames.forEach((f, j) => files.set(motion.frames[j], f.bytes));
+          }
+          scene.motions.push(motion);
         });
       } catch (e) {
         return { error: e.message };
