@@ -165,7 +165,8 @@ export class Studio {
     $('studio-band-width').addEventListener('input', () => { width(); this.changed(); });
     width();
     for (const id of ['studio-fill-holes', 'studio-subdivisions', 'studio-plane']) $(id).addEventListener('change', () => this.changed());
-    for (const r of this.root.querySelectorAll('input[name=studio-bands]')) r.addEventListener('change', () => this.changed());
+    for (const r of this.root.querySelectorAll('input[name=studio-bands]'))
+      r.addEventListener('change', () => { $('studio-band-width').disabled = this.bandMode() === 'painted'; this.changed(); });
     $('studio-quality').addEventListener('change', () => this.showAnswer());
     $('studio-budget').addEventListener('change', () => this.changed());
     $('studio-save').addEventListener('click', () => this.save());
@@ -426,10 +427,30 @@ export class Studio {
     // The mirror images join what is painted (the region's as the server tidied them; keep-out and
     // keep-in as it echoed them, mirrored); nothing painted is lost.
     const union = (layer, list) => this.paint.setLayerFaces(layer, [...this.paint.layerFaces(layer), ...(list || [])]);
+    // Painted attachment bands: mirrored by the server as a keep list of the same region.
+    const bands = this.paint.layerFaces('band');
+    const mirroredBands = bands.length ? await this.mirrorList(bands) : [];
     union('region', a.faces);
     union('keepOut', a.keepOut);
     union('keepIn', a.keepIn);
+    union('band', mirroredBands);
     await this.check();
+  }
+
+  // The body faces `list` (in the painted region) and their mirror images, as the server pairs them.
+  async mirrorList(list) {
+    const form = new FormData();
+    form.append('body', new Blob([this.files.rest.bytes]), this.files.rest.name);
+    form.append('faces', this.paint.layerFaces('region').join(' '));
+    form.append('keepIn', list.join(' '));
+    form.append('mirror', 'true');
+    form.append('symmetryPlane', this.plane().join(','));
+    try {
+      return (await api.postForm('/v1/regions:check', form)).keepIn || [];
+    } catch (e) {
+      this.error(`Mirror of the painted bands: ${e.message}`);
+      return [];
+    }
   }
 
   showAnswer() {

@@ -6,7 +6,8 @@
 // attachment bands at the rules' width: the status box says valid with two loops; 'Save scene'
 // downloads a zip whose face lists equal those `kgd region` writes with the same rules, whose poses are
 // the uploads and whose scene.json is tests/data/studio/scene.json's; a keep-in click is saved as the
-// garment faces under it; 'Submit' runs the job, shown in the jobs view, and its cut files download.
+// garment faces under it; Mirror mirrors a painted band; 'Submit' runs the job, shown in the jobs view,
+// and its cut files download.
 // The built-in body option shows the parametric body the server poses, and a click paints on it.
 //   node tests/web/studio_test.mjs --kgd build/client/kgd --artifacts build/test-artifacts/web/studio
 import { execFileSync } from 'node:child_process';
@@ -194,6 +195,36 @@ await runBrowserTest('studio', async ({ page, base, check, until, artifacts }) =
   const keepIn = readList(new TextDecoder().decode(zip2[scene2.garment.keep_in] || new Uint8Array()));
   check(kept.valid && kept.keepIn.length > 1 && kept.keepInGarmentFaces.length === 4 * kept.keepIn.length && sameList(keepIn, kept.keepInGarmentFaces),
     `a keep-in click marks ${kept.keepIn.length} body faces, saved as their ${keepIn.length} garment faces (garment.keep_in ${scene2.garment.keep_in})`);
+
+  // A band painted on the +x side near the region's lower edge, then Mirror: the band's mirror images
+  // (the faces whose centroids mirror its faces' about x = 0) are painted too. Back to the loops' bands.
+  await page.check('input[name=studio-bands][value=painted]');
+  await page.check('input[name=studio-layer][value=band]');
+  const edge = await page.evaluate((faces) => {
+    const p = window.kgdStudio.paint, c = p.centroids;
+    p.lookFrom([1, 0, 1]);
+    const t = faces.filter((f) => c[3 * f] > 0.04 && c[3 * f + 2] > 0.04).sort((a, b) => c[3 * a + 1] - c[3 * b + 1])[0];
+    return p.screenPoint(c[3 * t], c[3 * t + 1], c[3 * t + 2]);
+  }, expectedFaces);
+  await page.mouse.click(edge.x, edge.y);
+  await page.click('#studio-mirror');
+  await until('the mirrored bands checked', () => page.evaluate(() => { const s = window.kgdStudio.studio; return !s.timer && !s.checking && s.answer && !s.answer.mirrored; }), 20000);
+  const bandMirror = await page.evaluate(() => {
+    const p = window.kgdStudio.paint, c = p.centroids, band = p.layerFaces('band'), set = new Set(band);
+    const mirrorOf = (t) => {
+      let best = -1, d = Infinity;
+      for (let u = 0; u < p.faceCount; ++u) {
+        const e = Math.hypot(c[3 * u] + c[3 * t], c[3 * u + 1] - c[3 * t + 1], c[3 * u + 2] - c[3 * t + 2]);
+        if (e < d) { d = e; best = u; }
+      }
+      return best;
+    };
+    return { band: band.length, left: band.filter((t) => c[3 * t] < 0).length, paired: band.every((t) => set.has(mirrorOf(t))) };
+  });
+  check(bandMirror.band > 2 && bandMirror.left === bandMirror.band / 2 && bandMirror.paired,
+    `Mirror mirrors a painted band: ${bandMirror.band} faces, ${bandMirror.left} on the -x side, each face's mirror image painted`);
+  await page.check('input[name=studio-bands][value=loops]');
+  await page.check('input[name=studio-layer][value=region]');
 
   // Submit: the jobs view shows the job; it runs; its cut files download.
   await page.selectOption('#studio-quality', 'draft');
