@@ -125,8 +125,8 @@ export class Studio {
     root.innerHTML = TEMPLATE;
     this.view = null;  // the PaintView, made when the studio is first shown (one WebGL context less until then)
     this.files = { rest: null, deformed: null, frames: [] };  // { name, bytes, mesh }
-    this.motions = [];  // further motions: { row, file: { name, bytes } | null }
-    this.answer = null;  // the last answer of POST /v1/regions:check (of the request `answerOf`)
+    this.motions = [];  // further motions: { row, file: { name, bytes, mesh } | null, frames: [...] }
+    this.answer = null;  // the newest check's answer (POST /v1/regions:check)
     this.serial = 0;
     this.timer = null;
     this.checking = null;  // the promise of the newest check
@@ -137,8 +137,14 @@ export class Studio {
     window.kgdStudio = { studio, get paint() { return studio.paint; }, screenPoint: (x, y, z) => studio.paint.screenPoint(x, y, z) };
   }
 
+  // The 3D view, made on first use with the brush and layer the form says.
   get paint() {
-    this.view ??= new PaintView($('studio-canvas'), { onStroke: () => this.changed() });
+    if (!this.view) {
+      this.view = new PaintView($('studio-canvas'), { onStroke: () => this.changed() });
+      this.view.layer = this.root.querySelector('input[name=studio-layer]:checked').value;
+      this.view.erase = $('studio-erase').checked;
+      this.view.radiusM = (Number($('studio-radius').value) || 3) / 100;
+    }
     return this.view;
   }
 
@@ -173,17 +179,8 @@ export class Studio {
     $('studio-submit').addEventListener('click', () => this.submit());
   }
 
-  // The view is on screen: its 3D view made (the brush and layer the form says) and sized.
-  show() {
-    const made = !!this.view;
-    const p = this.paint;
-    if (!made) {
-      p.layer = this.root.querySelector('input[name=studio-layer]:checked').value;
-      p.erase = $('studio-erase').checked;
-      p.radiusM = (Number($('studio-radius').value) || 3) / 100;
-    }
-    p.resize();
-  }
+  // The view is on screen: its 3D view sized.
+  show() { this.paint.resize(); }
 
   fileError(text) { $('studio-file-error').textContent = text ? readable(text) : ''; }
   error(text) { $('studio-error').textContent = text ? readable(text) : ''; }
