@@ -553,4 +553,3 @@ function showView() {
 }
 window.addEventListener('hashchange', showView);
 showView();
-
