@@ -87,9 +87,10 @@ Result<SymmetryPlane> Plane(const std::string& text) {
 // Adds to each list its mirror image: for each face f in it the face mirror[f] whose centroid is
 // nearest f's mirrored centroid, and each face g whose mirror[g] is in it (on a body symmetric only
 // within the tolerance, such as the parametric body, the pairing is not one-to-one, and the first
-// alone leaves gaps). mirror: PairMirrorFaces' pairing with a tolerance every face meets; the listed
-// faces are then held to DefaultMirrorTolerance here, so that a body asymmetric elsewhere still mirrors.
-Result<std::vector<int>> MirrorFaces(const TriMesh& body, const std::string& body_name, const SymmetryPlane& plane,
+// alone leaves gaps). mirror: PairMirrorFaces' pairing with a tolerance every face meets; the pairs
+// are then held to DefaultMirrorTolerance here (a listed face beyond it is refused, another face
+// beyond it is not added), so that a body asymmetric elsewhere still mirrors.
+Status MirrorFaces(const TriMesh& body, const std::string& body_name, const SymmetryPlane& plane,
                                      const std::vector<std::vector<int>*>& lists) {
   const Eigen::Vector3d extent = body.vertices.colwise().maxCoeff() - body.vertices.colwise().minCoeff();
   SymmetryPlane loose = plane;
@@ -99,24 +100,26 @@ Result<std::vector<int>> MirrorFaces(const TriMesh& body, const std::string& bod
   const double tolerance = DefaultMirrorTolerance(body);
   const Eigen::Vector3d n = plane.normal.normalized();
   const Positions centroids = FaceCentroids(body.vertices, body.faces);
+  auto image = [&](int f) -> Eigen::Vector3d {
+    const Eigen::Vector3d c = centroids.row(f).transpose();
+    return c - 2.0 * (c - plane.point_m).dot(n) * n;
+  };
+  auto paired = [&](int f) { return (centroids.row(pairing->mirror[f]).transpose() - image(f)).norm() <= tolerance; };
   for (std::vector<int>* list : lists) {
     std::set<int> with(list->begin(), list->end());
     for (int f : *list) {
-      const Eigen::Vector3d c = centroids.row(f).transpose();
-      const Eigen::Vector3d image = c - 2.0 * (c - plane.point_m).dot(n) * n;
-      const int m = pairing->mirror[f];
-      if ((centroids.row(m).transpose() - image).norm() > tolerance)
+      if (!paired(f))
         return Status::Error(Part("mirror") + ": the body (" + body_name + ") is not mirror symmetric about the plane through " + Vec(plane.point_m) +
                              " with normal " + Vec(n) + ": " + FaceAt(body.vertices, body.faces, f) + " has no mirror face (none within " +
-                             Num(tolerance) + " m of its image " + Vec(image) + ")");
-      with.insert(m);
+                             Num(tolerance) + " m of its image " + Vec(image(f)) + ")");
+      with.insert(pairing->mirror[f]);
     }
     const std::set<int> listed(list->begin(), list->end());
-    for (size_t g = 0; g < pairing->mirror.size(); ++g)
-      if (listed.count(pairing->mirror[g])) with.insert(static_cast<int>(g));
+    for (int g = 0; g < static_cast<int>(pairing->mirror.size()); ++g)
+      if (listed.count(pairing->mirror[g]) && paired(g)) with.insert(g);
     list->assign(with.begin(), with.end());
   }
-  return pairing->mirror;
+  return Status::Ok();
 }
 
 // Garment faces (of the cut) whose body face is in `body_faces`.
@@ -177,8 +180,7 @@ Result<RegionCheckAnswer> CheckPaintedRegion(const RegionCheckRequest& r, double
   RegionCheckAnswer a;
   a.mirrored = *mirror;
   if (*mirror) {
-    Result<std::vector<int>> m = MirrorFaces(*body, name, *plane, {&*painted, &*keep_out, &*keep_in});
-    if (!m.ok()) return m.status();
+    KGD_RETURN_IF_ERROR(MirrorFaces(*body, name, *plane, {&*painted, &*keep_out, &*keep_in}));
   }
   a.keep_out = *keep_out;
   a.keep_in = *keep_in;
