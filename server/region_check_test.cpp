@@ -11,6 +11,7 @@
 #include <set>
 #include <sstream>
 
+#include "core/beso/design_constraints.h"
 #include "core/mesh/mesh_io.h"
 #include "core/scene/body_garment.h"
 
@@ -100,6 +101,11 @@ TEST(RegionCheck, ATubeHasTwoLoopsAndTheAreaBandsAndCountsOfCoreOnTheSameFaces) 
   }
   Result<std::vector<AttachmentBand>> bands = AttachmentBands(S().body, *region, 0.02);
   ASSERT_TRUE(bands.ok());
+  // The committed face lists (what `kgd region` wrote, scene.json names) are these: the page's test compares with them.
+  EXPECT_EQ(*ReadIndexList(kDir + "garment_region.txt"), band);
+  std::set<int> attached;
+  for (const AttachmentBand& b : *bands) attached.insert(b.faces.begin(), b.faces.end());
+  EXPECT_EQ(*ReadIndexList(kDir + "attachment_body_faces.txt"), std::vector<int>(attached.begin(), attached.end()));
   ASSERT_EQ(a->bands.size(), bands->size());
   for (size_t b = 0; b < bands->size(); ++b) {
     EXPECT_EQ(a->bands[b].faces, (*bands)[b].faces);
@@ -121,6 +127,11 @@ TEST(RegionCheck, ATubeHasTwoLoopsAndTheAreaBandsAndCountsOfCoreOnTheSameFaces) 
 }
 
 TEST(RegionCheck, TheMirrorOfThePaintedHalfIsTheRegionOfTheRules) {
+  // The studio torso is small and mirror symmetric about x = 0 to rounding: every face has its image.
+  EXPECT_LE(S().body.faces.rows(), 4000);
+  const Result<MirrorPairing> pairing = PairMirrorFaces(S().body, SymmetryPlane{});
+  ASSERT_TRUE(pairing.ok()) << pairing.message();
+  EXPECT_LT(pairing->max_distance_m, 1e-9);
   const std::vector<int> band = S().RulesRegion();
   const std::vector<int> half = S().Left(band);
   ASSERT_EQ(half.size(), 400u);
