@@ -398,6 +398,7 @@ TEST(Records, IterationsRoundTripBitForBit) {
     m.simulation_s = 0.125;
     m.solver_iterations = 9;
     it.motions.push_back(m);
+    it.motion_positions = {it.positions * (1.0 / 3.0)};
   }
   const int faces = scene->garment.faces.rows(), vertices = scene->garment.vertices.rows();
   for (const BesoIteration& it : *run) {
@@ -414,8 +415,13 @@ TEST(Records, IterationsRoundTripBitForBit) {
     EXPECT_TRUE(back->positions == it.positions);
     EXPECT_TRUE(back->energy_density_Pa == it.energy_density_Pa);
     EXPECT_TRUE(back->sensitivity == it.sensitivity);
+    ASSERT_EQ(back->motion_positions.size(), 1u);
+    EXPECT_TRUE(back->motion_positions[0] == it.motion_positions[0]);
   }
   v1::IterationRecord bad = RecordToProto(run->back());
+  bad.mutable_motion_positions()->RemoveLast();
+  EXPECT_NE(RecordFromProto(bad, faces, vertices).message().find("motion_positions has"), std::string::npos);
+  bad = RecordToProto(run->back());
   bad.mutable_positions()->RemoveLast();
   EXPECT_FALSE(RecordFromProto(bad, faces, vertices).ok());
   bad = RecordToProto(run->back());

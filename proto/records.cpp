@@ -116,6 +116,8 @@ v1::IterationRecord RecordToProto(const BesoIteration& it, const RecordArrays& a
   *r.mutable_metrics() = MetricsToProto(it);
   if (arrays.design) r.set_design(std::string(it.design.begin(), it.design.end()));
   if (arrays.positions) Append(it.positions.data(), it.positions.size(), r.mutable_positions());
+  if (arrays.positions)
+    for (const Positions& p : it.motion_positions) Append(p.data(), p.size(), r.mutable_motion_positions());
   if (arrays.energy_density) Append(it.energy_density_Pa.data(), it.energy_density_Pa.size(), r.mutable_energy_density_pa());
   if (arrays.sensitivity) Append(it.sensitivity.data(), it.sensitivity.size(), r.mutable_sensitivity());
   return r;
@@ -146,6 +148,17 @@ Result<BesoIteration> RecordFromProto(const v1::IterationRecord& r, int faces, i
   for (int i = 0; i < r.positions_size(); ++i) it.positions.data()[i] = r.positions(i);
   it.energy_density_Pa = ToVector(r.energy_density_pa());
   it.sensitivity = ToVector(r.sensitivity());
+  if (r.motion_positions_size() > 0) {
+    const int nv = static_cast<int>(it.positions.rows()), others = static_cast<int>(it.motions.size()) - 1;
+    if (nv == 0 || others < 1 || r.motion_positions_size() != others * 3 * nv)
+      return Status::Error(where + "motion_positions has " + std::to_string(r.motion_positions_size()) + " values for " +
+                           std::to_string(std::max(others, 0)) + " other motions of " + std::to_string(nv) + " vertices");
+    for (int k = 0; k < others; ++k) {
+      Positions p(nv, 3);
+      for (int i = 0; i < 3 * nv; ++i) p.data()[i] = r.motion_positions(k * 3 * nv + i);
+      it.motion_positions.push_back(std::move(p));
+    }
+  }
   return it;
 }
 

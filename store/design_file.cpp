@@ -4,7 +4,10 @@
 
 #include <hdf5.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <string_view>
@@ -126,6 +129,7 @@ struct DesignFileWriter::Impl {
   Id file, iterations;
   int faces = 0, vertices = 0;
   size_t motions = 0;  // K: /iterations/motion_metrics rows hold K motions (0: no such dataset)
+  bool motion_positions = false;  // /iterations/motion_positions holds motions 2..K's equilibria
 };
 
 DesignFileWriter::~DesignFileWriter() = default;
@@ -157,6 +161,9 @@ namespace {
 // simulation_s, solver_iterations.
 constexpr int kMotionFigures = 6;
 constexpr const char* kMotionMetrics = "motion_metrics";
+// Per iteration: the equilibria of motions 2..K, (K-1, V, 3); rows of an iteration without them
+// (salvaged from a file of before) hold NaN.
+constexpr const char* kMotionPositions = "motion_positions";
 
 std::string MotionsToJson(const std::vector<MotionMetrics>& motions) {
   nlohmann::ordered_json j = nlohmann::ordered_json::array();
@@ -417,6 +424,16 @@ Status ReadIteration(const DesignFileReader& r, hsize_t i, bool arrays, BesoIter
   if (!ok) return Fail(r.path, "cannot read the arrays of iteration " + std::to_string(i));
   it->positions = FromRowMajor(x);
   if (i == 0) it->sensitivity.resize(0);
+  it->motion_positions.clear();
+  if (r.header.motions.size() > 1 && HasDataset(its, kMotionPositions)) {
+    const size_t others = r.header.motions.size() - 1;
+    std::vector<double> all(others * nv * 3);
+    if (!ReadRow(its, kMotionPositions, H5T_NATIVE_DOUBLE, i, all.data()))
+      return Fail(r.path, "cannot read the other motions' positions of iteration " + std::to_string(i));
+    if (std::all_of(all.begin(), all.end(), [](double v) { return std::isfinite(v); }))
+      for (size_t k = 0; k < others; ++k)
+        it->motion_positions.push_back(FromRowMajor(std::vector<double>(all.begin() + k * nv * 3, all.begin() + (k + 1) * nv * 3)));
+  }
   return Status::Ok();
 }
 
@@ -483,7 +500,9 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
        CreateGrowing(m.iterations, "energy_density_Pa", H5T_IEEE_F64LE, {nf}, Storage::kRaw) &&
        CreateGrowing(m.iterations, "sensitivity", H5T_IEEE_F64LE, {nf}, Storage::kRaw);
   if (!h.motions.empty()) ok = ok && CreateGrowing(m.iterations, kMotionMetrics, H5T_IEEE_F64LE, {h.motions.size(), kMotionFigures});
+  if (h.motions.size() > 1) ok = ok && CreateGrowing(m.iterations, kMotionPositions, H5T_IEEE_F64LE, {h.motions.size() - 1, nv, 3}, Storage::kRaw);
   m.motions = h.motions.size();
+  m.motion_positions = h.motions.size() > 1;
   if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot write the design file (disk full?)");
   if (H5Fstart_swmr_write(m.file) < 0) return Fail(path, "cannot start single-writer/multiple-reader mode");
   return w;
@@ -560,6 +579,9 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
   for (const std::string& name : DesignFileMetricNames()) ok = ok && Truncate(m.iterations, name.c_str(), keep);
   for (const char* name : kArrayNames) ok = ok && Truncate(m.iterations, name, keep);
   if (m.motions > 0) ok = ok && Truncate(m.iterations, kMotionMetrics, keep);
+  // Files of before the other motions' positions were stored go on without them.
+  m.motion_positions = ok && m.motions > 1 && HasDataset(m.iterations, kMotionPositions);
+  if (m.motion_positions) ok = Truncate(m.iterations, kMotionPositions, keep);
   if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot truncate the design file");
   // Files of format_version 1 written before SWMR (superblock < 3) cannot enter SWMR mode; they are
   // appended to as before.
@@ -614,6 +636,10 @@ Status DesignFileWriter::Append(const BesoIteration& it) {
   if (m.motions > 0 && it.motions.size() != m.motions)
     return Fail(m.path, "iteration " + std::to_string(it.iteration) + ": " + std::to_string(it.motions.size()) + " motions, the file " +
                             std::to_string(m.motions));
+  if (m.motion_positions && !it.motion_positions.empty() && (it.motion_positions.size() + 1 != m.motions ||
+                                       std::any_of(it.motion_positions.begin(), it.motion_positions.end(),
+                                                   [&](const Positions& p) { return p.rows() != m.vertices; })))
+    return Fail(m.path, "iteration " + std::to_string(it.iteration) + ": the other motions' positions do not match the garment and motions");
   const hsize_t row = count_;
   bool ok = true;
   if (m.motions > 0) {
@@ -640,6 +666,14 @@ Status DesignFileWriter::Append(const BesoIteration& it) {
        WriteRow(m.iterations, "positions", H5T_NATIVE_DOUBLE, row, x.data()) &&
        WriteRow(m.iterations, "energy_density_Pa", H5T_NATIVE_DOUBLE, row, it.energy_density_Pa.data()) &&
        WriteRow(m.iterations, "sensitivity", H5T_NATIVE_DOUBLE, row, sens.data());
+  if (ok && m.motion_positions) {
+    std::vector<double> all((m.motions - 1) * m.vertices * 3, std::numeric_limits<double>::quiet_NaN());
+    for (size_t k = 0; k < it.motion_positions.size(); ++k) {
+      const std::vector<double> xk = RowMajor(it.motion_positions[k]);
+      std::copy(xk.begin(), xk.end(), all.begin() + k * m.vertices * 3);
+    }
+    ok = WriteRow(m.iterations, kMotionPositions, H5T_NATIVE_DOUBLE, row, all.data());
+  }
   // Last, once everything else is on disk: the commit marker. (Within one flush HDF5 may write the
   // marker's extent before another dataset's chunk; a writer killed in between left a file whose
   // marker promised a row the design did not have.)

@@ -27,6 +27,9 @@
 //   /iterations/motion_metrics   (N,K,6) float64 per motion: energy_J, reinforced_energy_J,
 //                                reinforced_density_J_per_m2, density_ratio, simulation_s,
 //                                solver_iterations (with /job motions)
+//   /iterations/motion_positions (N,K-1,V,3) float64, m: motions 2..K's equilibria, where a resumed
+//                                job warm-starts them (with K > 1; NaN rows: not stored; files before
+//                                it lack it and resume by solving them again)
 //
 // Per-iteration arrays are chunked one iteration per chunk, metrics 64 iterations per chunk, /garment
 // datasets in one chunk each; every chunk carries a Fletcher-32 checksum (files written before it

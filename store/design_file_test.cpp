@@ -135,6 +135,8 @@ TEST(DesignFile, PerMotionRecordsRoundTripAndOldFilesReadAsOneMotion) {
       mm.simulation_s = 0.001 * (it.iteration + 1) * (m + 1);
       mm.solver_iterations = it.iteration + 10 * m;
     }
+    // The other motion's equilibrium, where a resumed job warm-starts it; iteration 2 without it.
+    if (it.iteration < 2) it.motion_positions = {1.5 * it.positions};
   }
   const std::string path = TempPath("motions.h5");
   {
@@ -167,6 +169,19 @@ TEST(DesignFile, PerMotionRecordsRoundTripAndOldFilesReadAsOneMotion) {
   d = ReadDesignFile(path);
   ASSERT_TRUE(d.ok()) << d.message();
   check(*d, 3);
+  for (size_t k = 0; k < 3; ++k) {
+    ASSERT_EQ(d->iterations[k].motion_positions.size(), f.run[k].motion_positions.size()) << "iteration " << k;
+    if (k < 2) EXPECT_TRUE(d->iterations[k].motion_positions[0] == f.run[k].motion_positions[0]) << "iteration " << k;
+  }
+  {
+    auto w = DesignFileWriter::Reopen(path, 3);
+    ASSERT_TRUE(w.ok()) << w.message();
+    BesoIteration wrong = f.run[0];
+    wrong.iteration = 3;
+    wrong.motion_positions = {wrong.positions, wrong.positions};
+    const Status refused = (*w)->Append(wrong);
+    EXPECT_NE(refused.message().find("the other motions' positions do not match"), std::string::npos) << refused.message();
+  }
 
   // The same history in a file without motions.
   {

@@ -157,6 +157,7 @@ BesoIteration MetricsOnly(BesoIteration it) {
   it.energy_density_Pa.resize(0);
   it.sensitivity.resize(0);
   it.design.clear();
+  it.motion_positions.clear();
   return it;
 }
 
@@ -312,11 +313,20 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
     st.x = st.scene.initial;
     if (!past.empty() && past.front().motions.size() == motions.size()) st.full_density = past.front().motions[k].reinforced_density_J_per_m2;
   }
-  // Resumed: the other motions' equilibria are not stored; they are solved again at the stored design,
-  // from the body.
-  if (last)
-    for (MotionState& st : others)
-      if (Result<SimulationResult> r = SolveMotion(&st, last->iteration, true); !r.ok()) return r.status();
+  // Resumed: the other motions (at the stored design: scene.design) continue from their stored
+  // equilibria, as the uninterrupted run left them; records without them solve them again from the body.
+  if (last) {
+    const bool stored = last->motion_positions.size() == others.size();
+    for (size_t k = 0; k < others.size(); ++k) {
+      MotionState& st = others[k];
+      if (stored && last->motion_positions[k].rows() == st.x.rows() && last->motion_positions[k].allFinite()) {
+        st.x = last->motion_positions[k];
+        st.density = Summarize(*st.sys, st.x, st.scene.on_body, SolveReport{}).face_density_Pa;
+      } else if (Result<SimulationResult> r = SolveMotion(&st, last->iteration, true); !r.ok()) {
+        return r.status();
+      }
+    }
+  }
   // The pressure limit: every resisted motion's pressures at its last equilibrium, the peak over them,
   // the area the limit keeps cloth. A resumed run starts its kept-out set from the stored design's
   // equilibrium (the set is not stored), so it keeps the limit but may part from the uninterrupted run.
@@ -444,6 +454,8 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
     b.positions = x;
     b.energy_density_Pa = r.face_density_Pa;
     b.motions = std::move(motion_metrics);
+    b.motion_positions.clear();
+    for (const MotionState& st : others) b.motion_positions.push_back(st.x);
     density = r.face_density_Pa;
     if (limit_Pa > 0 && report.at_equilibrium()) {
       measure_pressure();

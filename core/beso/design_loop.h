@@ -89,6 +89,10 @@ struct BesoIteration {
   // Every motion of the scene (MotionsOf), in its order; motions[0] gives the metrics above. Empty only
   // in records from before motions were stored.
   std::vector<MotionMetrics> motions;
+  // The equilibria of motions 2..K (MotionsOf order; m), each on its own garment rest shape: where a
+  // resumed run warm-starts them, so that it continues bit for bit. Empty with one motion, and in
+  // records from before they were stored (a resumed run then solves them again from the body).
+  std::vector<Positions> motion_positions;
 };
 
 // The metric that holds the evaluation time of the energy term named `term` (the registry's key,

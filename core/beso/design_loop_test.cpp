@@ -334,6 +334,39 @@ TEST(DesignLoopMotions, AnAllowedMotionOfWeightZeroChangesNothingButIsReported) 
   EXPECT_EQ(c->front().motions[1].density_ratio, 1.0);
 }
 
+// A run of two motions resumed from the records of iteration k continues the uninterrupted one bit for
+// bit, every motion's figures included: the other motion warm-starts from its stored equilibrium.
+// Records without it (files of before) resume all the same, from the body, and part from it.
+TEST(DesignLoopMotions, AResumedRunOfTwoMotionsMatchesTheUninterruptedOne) {
+  const SceneSpec scene = FlexingSleeve({{"flex", MotionRole::kResist, 1.0, 0.8}, {"back", MotionRole::kAllow, 1.0, -0.8}});
+  const BesoSettings s = Quick(8);
+  const Result<std::vector<BesoIteration>> whole = RunBeso(scene, s);
+  ASSERT_TRUE(whole.ok()) << whole.message();
+  ASSERT_GE(whole->size(), 6u);
+  for (const BesoIteration& it : *whole) {
+    ASSERT_EQ(it.motion_positions.size(), 1u);
+    EXPECT_EQ(it.motion_positions[0].rows(), it.positions.rows());
+  }
+  std::vector<BesoIteration> head(whole->begin(), whole->begin() + 3);
+  const Result<std::vector<BesoIteration>> tail = RunBeso(scene, s, {}, &head);
+  ASSERT_TRUE(tail.ok()) << tail.message();
+  std::vector<BesoIteration> resumed = head;
+  resumed.insert(resumed.end(), tail->begin(), tail->end());
+  ExpectSameRun(*whole, resumed);
+  for (size_t k = 0; k < whole->size() && k < resumed.size(); ++k) {
+    SCOPED_TRACE("iteration " + std::to_string(k));
+    ASSERT_EQ(resumed[k].motions.size(), 2u);
+    EXPECT_EQ(resumed[k].motions[1].reinforced_energy_J, (*whole)[k].motions[1].reinforced_energy_J);
+    EXPECT_EQ(resumed[k].motions[1].solver_iterations, (*whole)[k].motions[1].solver_iterations);
+    EXPECT_TRUE(resumed[k].motion_positions[0] == (*whole)[k].motion_positions[0]);
+  }
+  head.back().motion_positions.clear();
+  const Result<std::vector<BesoIteration>> from_body = RunBeso(scene, s, {}, &head);
+  ASSERT_TRUE(from_body.ok()) << from_body.message();
+  ASSERT_FALSE(from_body->empty());
+  EXPECT_FALSE(from_body->front().motion_positions[0] == (*whole)[3].motion_positions[0]) << "solved again from the body: another equilibrium";
+}
+
 // An allowed motion's re-solves stop at a looser tolerance than a resisted one's; its iteration 0 (the
 // fully reinforced reference of its density ratio) and every other motion keep the scene's. The same
 // motion of weight 0, allowed or resisted: the same designs, the allowed one's solves shorter, its
