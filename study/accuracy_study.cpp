@@ -40,6 +40,8 @@ struct Run : StudyRun {
   std::vector<Positions> positions;           // per iteration (reference run)
 };
 
+}  // namespace
+
 // kTightGradTol; NaN when that solve does not reach equilibrium.
 double TightDensity(SceneSpec scene, const std::vector<uint8_t>& design) {
   scene.design = design;
@@ -51,6 +53,8 @@ double TightDensity(SceneSpec scene, const std::vector<uint8_t>& design) {
   if (!r.ok() || !r->solve.at_equilibrium()) return kNaN;
   return r->reinforced_density_J_per_m2;
 }
+
+namespace {
 
 Run DesignRun(const std::string& knob, const std::string& value, const SceneSpec& scene, const BesoSettings& settings,
               bool keep_history) {

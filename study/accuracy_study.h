@@ -4,6 +4,7 @@
 // WriteAccuracyReport writes what it found as CSV, SVG plots and a generated ACCURACY.md.
 #pragma once
 
+#include <cstdint>
 #include <limits>
 #include <string>
 #include <utility>
@@ -11,11 +12,19 @@
 
 #include "core/util/status.h"
 
+namespace kgd {
+struct SceneSpec;
+}
+
 namespace kgd::study {
 
 // Tight re-solves and reference solutions: a tolerance two decades below the tightest knob setting a
 // design is made with that Newton still reaches on the built-in scenes.
 inline constexpr double kTightGradTol = 1e-8;
+// The reinforced density (J/m^2) of `design` put on in `scene`'s deformed pose and solved by Newton at
+// kTightGradTol: the "tight" figure every design of the study is judged by; NaN when that solve does
+// not reach equilibrium.
+double TightDensity(SceneSpec scene, const std::vector<uint8_t>& design);
 // The knob of `precise` run again from a start moved by at most 1 nm.
 inline constexpr const char* kRepeatKnob = "precise, repeated";
 

@@ -63,6 +63,12 @@ struct BesoSettings {
 #define KGD_DECLARE_BESO_SWITCH(name, default_value, flag, proto_field, help) bool name = default_value;
   KGD_BESO_SWITCHES(KGD_DECLARE_BESO_SWITCH)
 #undef KGD_DECLARE_BESO_SWITCH
+  // Not a job setting yet (no flag, proto field or design-file key; docs/DECISIONS.md, "Design loop"):
+  // while the target area still shrinks, the own motion's re-solves stop at this multiple of the
+  // scene's grad_tol; iteration 0 (the density ratios' reference) and every iteration from the one
+  // that reaches the budget on (where the convergence test compares objectives) at the scene's own.
+  // 1: every re-solve at the scene's tolerance, bit for bit the loop without it.
+  double shrinking_tolerance_factor = 1.0;
 };
 
 // Budget in (0, 1], ER and AR_max in (0, 1), p >= 1 and finite, d_min in (0, 1), tau > 0 and finite,

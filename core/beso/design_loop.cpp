@@ -415,13 +415,16 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
     // (resumable bit for bit); within the iteration the factorization is reused as usual.
     sim.ResetFactorization();
     const auto t0 = Clock::now();
-    SolveReport report = SolveLagged(sim, sys, &x, scene.solver);
+    SolverSettings solver = scene.solver;
+    if (it > 0 && settings.shrinking_tolerance_factor != 1.0 && !TargetReached(target, final_area))
+      solver.grad_tol *= settings.shrinking_tolerance_factor;
+    SolveReport report = SolveLagged(sim, sys, &x, solver);
     if (!report.at_equilibrium() && it > 0) {
       // From the last equilibrium the solver can wander into a path it cannot finish (a pleat pressed
       // against the fold barrier); the garment on the body is the start the scene was made for.
       x = scene.initial;
       sim.ResetFactorization();
-      AccumulateSolve(&report, SolveLagged(sim, sys, &x, scene.solver));
+      AccumulateSolve(&report, SolveLagged(sim, sys, &x, solver));
       b.cold_restart = 1;
     }
     const SimulationResult r = Summarize(sys, x, reference, report);

@@ -229,6 +229,13 @@ TEST(DesignLoop, BadSettingsAreRefused) {
   const Result<std::vector<BesoIteration>> run = RunBeso(*scene, s);
   ASSERT_FALSE(run.ok());
   EXPECT_NE(run.message().find("budget"), std::string::npos);
+  for (double factor : {0.5, std::numeric_limits<double>::infinity()}) {
+    BesoSettings t;
+    t.shrinking_tolerance_factor = factor;
+    const Result<std::vector<BesoIteration>> r = RunBeso(*scene, t);
+    ASSERT_FALSE(r.ok()) << factor;
+    EXPECT_NE(r.message().find("shrinking_tolerance_factor"), std::string::npos) << r.message();
+  }
 }
 
 }  // namespace
@@ -303,6 +310,49 @@ void ExpectSameRun(const std::vector<BesoIteration>& a, const std::vector<BesoIt
     if (a[k].sensitivity.size() == b[k].sensitivity.size()) EXPECT_TRUE(a[k].sensitivity == b[k].sensitivity);
   }
 }
+
+// shrinking_tolerance_factor: while the target area shrinks the re-solves stop at that multiple of the
+// scene's tolerance (fewer Newton iterations, equilibria a re-solve at the scene's tolerance moves on);
+// iteration 0 and the iterations from the budget on are at the scene's own (a re-solve there takes none).
+TEST(DesignLoop, ALooserToleranceWhileTheTargetShrinksEndsAtTheScenesOwn) {
+  const SceneSpec scene = FlexingSleeve({{"flex", MotionRole::kResist, 1.0, 0.8}});
+  BesoSettings s = Quick(8);
+  s.budget = 0.8;  // reached at iteration 4 (0.94^4 < 0.8)
+  const Result<std::vector<BesoIteration>> tight = RunBeso(scene, s);
+  s.shrinking_tolerance_factor = 100;
+  const Result<std::vector<BesoIteration>> loose = RunBeso(scene, s);
+  ASSERT_TRUE(tight.ok()) << tight.message();
+  ASSERT_TRUE(loose.ok()) << loose.message();
+  ASSERT_GE(loose->size(), 6u);
+  EXPECT_EQ(loose->front().energy_J, tight->front().energy_J) << "iteration 0 at the scene's tolerance";
+  const double final_m2 = s.budget * FaceAreas(scene.garment.vertices, scene.garment.faces).sum();
+  int newton_tight = 0, newton_loose = 0, shrinking = 0, moved_on = 0, at_budget = 0;
+  for (size_t k = 0; k < loose->size(); ++k) {
+    SCOPED_TRACE("iteration " + std::to_string(k));
+    const BesoIteration& it = (*loose)[k];
+    const bool reached = it.target_area_m2 <= final_m2 * (1 + 1e-12);
+    SceneSpec at = scene;
+    at.design = it.design;
+    GarmentSystem sys(BuildGarmentModel(at).value(), at.initial);
+    Simulator sim(&sys);
+    Positions x = it.positions;
+    const SolveReport again = sim.Solve(&x, scene.solver);
+    if (k == 0 || reached) {
+      EXPECT_EQ(again.iterations, 0) << "at the scene's tolerance";
+      at_budget += reached;
+    } else {
+      ++shrinking;
+      moved_on += again.iterations > 0;
+      newton_loose += it.solver_iterations;
+      newton_tight += (*tight)[k].solver_iterations;
+    }
+  }
+  EXPECT_EQ(shrinking, 3);
+  EXPECT_GE(at_budget, 1);
+  EXPECT_GT(moved_on, 0) << "some shrinking iteration stopped short of the scene's tolerance";
+  EXPECT_LT(newton_loose, newton_tight);
+}
+
 
 // An allowed motion of weight 0, or any allowed motion with resist_only, is simulated and reported but
 // changes no design: the run is the single-motion scene's, bit for bit.
