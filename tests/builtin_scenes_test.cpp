@@ -263,6 +263,31 @@ TEST(BuiltinScenes, SimulateNamesABodyThatLosesVolume) {
 
 // The scene cache: a built-in scene stored and loaded again is the same scene bit for bit; a damaged
 // entry is not used (and is written again); `kgd design` on a cached scene gives the same design.
+// Every scene on the parametric body is kept in the scene cache (a brace's build takes a minute on a
+// busy machine), and a scene of several motions comes back from it with every motion's poses.
+TEST(BuiltinScenes, EveryParametricSceneIsCachedWithItsMotions) {
+  for (const BuiltinSceneInfo& info : BuiltinSceneInfos()) EXPECT_EQ(IsCachedBuiltinScene(info.name), info.parametric_body) << info.name;
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "kgd_scene_cache_motions";
+  std::filesystem::remove_all(dir);
+  Result<SceneSpec> scene = ThreeMotionSleeve();
+  ASSERT_TRUE(scene.ok()) << scene.message();
+  ASSERT_TRUE(StoreCachedScene(dir.string(), scene->name, BodyMeasurements(), *scene).ok());
+  std::optional<SceneSpec> cached = LoadCachedScene(dir.string(), scene->name, BodyMeasurements());
+  ASSERT_TRUE(cached.has_value());
+  ASSERT_EQ(cached->motions.size(), scene->motions.size());
+  for (size_t k = 0; k < scene->motions.size(); ++k) {
+    const SceneMotion &a = scene->motions[k], &b = cached->motions[k];
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.role, b.role);
+    EXPECT_EQ(a.weight, b.weight);
+    EXPECT_TRUE(a.pose.deformed == b.pose.deformed) << a.name;
+    ASSERT_EQ(a.pose.frames.size(), b.pose.frames.size()) << a.name;
+    for (size_t f = 0; f < a.pose.frames.size(); ++f) EXPECT_TRUE(a.pose.frames[f] == b.pose.frames[f]) << a.name << " frame " << f;
+  }
+  EXPECT_TRUE(cached->garment.vertices == scene->garment.vertices);
+  EXPECT_TRUE(cached->initial == scene->initial);
+}
+
 TEST(BuiltinScenes, TheSceneCacheGivesTheSameSceneAndIgnoresADamagedEntry) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "kgd_scene_cache_test";
   std::filesystem::remove_all(dir);

@@ -253,16 +253,23 @@ Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::st
   return ResolveBuiltinScene(arg, body_items, cache_dir);
 }
 
+bool IsCachedBuiltinScene(const std::string& name) {
+  for (const PaperMotion& m : PaperMotions())
+    if (m.name == name) return true;
+  for (const BraceScene& b : BraceScenes())
+    if (b.name == name) return true;
+  for (const SizedScene& z : SizedScenes())
+    if (z.name == name) return true;
+  return false;
+}
+
 Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector<std::string>& body_items,
                                       const std::optional<std::string>& cache_dir) {
   Result<std::optional<BodyMeasurements>> body = ParseBodyMeasurements(body_items);
   if (!body.ok()) return body.status();
-  // The paper's scenes and the sized ones are built on the parametric body (seconds; the other sizes'
-  // bodies longer); on a warm machine they come from the scene cache (a fraction of a second). The
-  // quick simulator checks are built every time.
-  bool parametric = false;
-  for (const PaperMotion& m : PaperMotions()) parametric = parametric || m.name == name;
-  for (const SizedScene& z : SizedScenes()) parametric = parametric || z.name == name;
+  // On a warm machine the scenes on the parametric body come from the scene cache (a fraction of a
+  // second).
+  const bool parametric = IsCachedBuiltinScene(name);
   const BodyMeasurements measurements = *body ? **body : BodyMeasurements();
   const std::string cache = cache_dir ? *cache_dir : SceneCacheDir();
   if (parametric)

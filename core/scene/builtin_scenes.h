@@ -14,10 +14,16 @@
 namespace kgd {
 
 // A scene argument: a scene file if it exists, else the name of a built-in scene (on a parametric body
-// made to the `name=value` measurements `body_items`, when given). The paper's scenes are kept in the
-// scene cache (core/scene/scene_cache.h) in `cache_dir`: by default the user's (SceneCacheDir), "" off.
+// made to the `name=value` measurements `body_items`, when given). The scenes on the parametric body
+// (IsCachedBuiltinScene) are kept in the scene cache (core/scene/scene_cache.h) in `cache_dir`: by
+// default the user's (SceneCacheDir), "" off.
 Result<SceneSpec> ResolveScene(const std::string& arg, const std::vector<std::string>& body_items = {},
                                const std::optional<std::string>& cache_dir = std::nullopt);
+
+// The built-in scenes kept in the scene cache: every scene on the parametric body (the paper's, the
+// braces and shirt of several motions, the sized ones), whose build takes seconds to a minute; the
+// quick simulator checks are built every time.
+bool IsCachedBuiltinScene(const std::string& name);
 
 // A built-in scene by name only (`kgd scene export`): files and folders of the same name are ignored.
 Result<SceneSpec> ResolveBuiltinScene(const std::string& name, const std::vector<std::string>& body_items = {},
