@@ -132,12 +132,14 @@ int RunDesign(const DesignOptions& o) {
   const MachineFactor machine = ReadMachineFactor(LocalCostCalibrationFile());
   const double predicted_s = machine.factor * cost.solves_s(cost.iterations);
   if (!o.json && !resume) {
-    const int frames = scene.motion ? static_cast<int>(scene.motion->frames.size()) : 0;
+    // The frames of every motion (or body) the job weighs, as `kgd scenes` counts them.
+    int frames = 0;
+    for (const SceneMotion& m : MotionsOf(scene)) frames += static_cast<int>(m.pose.frames.size());
     char calibrated[96];
     if (machine.jobs > 0) std::snprintf(calibrated, sizeof calibrated, "; this machine: %.2fx the reference, from %d jobs", machine.factor, machine.jobs);
     else std::snprintf(calibrated, sizeof calibrated, "; the reference machine's until a job finishes here");
-    std::printf("design %s -> %s (budget %.3g, %s, %d frames): predicted about %.0f s (%d iterations of %.3f s%s)\n", scene.name.c_str(),
-                path.c_str(), settings.budget, PresetOf(quality).name, frames, predicted_s, cost.iterations,
+    std::printf("design %s -> %s (budget %.3g, %s, %d frames): predicted about %.0f s (%d iteration%s of %.3f s%s)\n", scene.name.c_str(),
+                path.c_str(), settings.budget, PresetOf(quality).name, frames, predicted_s, cost.iterations, cost.iterations == 1 ? "" : "s",
                 machine.factor * cost.per_iteration_s, calibrated);
   } else if (!bar && !o.json) {
     std::printf("design %s -> %s (budget %.3g)\n", scene.name.c_str(), path.c_str(), settings.budget);

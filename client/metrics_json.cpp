@@ -21,6 +21,11 @@ nlohmann::ordered_json MetricsJson(const v1::IterationMetrics& m) {
 #define KGD_METRIC_JSON(type, name, what) j[#name] = it.name;
   KGD_BESO_METRICS(KGD_METRIC_JSON)
 #undef KGD_METRIC_JSON
+  // The pressure limit's figures only for a job with one (a peak of 0 would read as no pressure).
+  if (!(it.peak_pressure_Pa > 0)) {
+    j.erase("peak_pressure_Pa");
+    j.erase("pressure_kept_out_fraction");
+  }
   j["motions"] = MotionsJson(it.motions);
   return j;
 }
