@@ -331,9 +331,9 @@ int RunEvaluateOnBodies(const StoredDesign& sd, const std::string& path, const s
   j["scene"] = scene->name;
   j["bodies"] = nlohmann::json::array();
   if (!json)
-    std::printf("design of iteration %d (%.1f%% reinforced) on the bodies of %s, deformed pose\n%-8s %12s %14s %14s %7s\n", sd.iteration,
+    std::printf("design of iteration %d (%.1f%% reinforced) on the bodies of %s, deformed pose\n%-8s %12s %14s %14s %7s %9s %9s\n", sd.iteration,
                 100 * sd.file.iterations[sd.iteration].area_fraction, scene->name.c_str(), "body", "reinf_J", "density_J/m2", "full_J/m2",
-                "ratio");
+                "ratio", "peak_kPa", "p95_kPa");
   double worst = std::numeric_limits<double>::infinity();
   for (const BodyEvaluation& e : *bodies) {
     worst = std::min(worst, e.density_ratio);
@@ -342,10 +342,13 @@ int RunEvaluateOnBodies(const StoredDesign& sd, const std::string& path, const s
                              {"reinforced_energy_J", e.designed.reinforced_energy_J},
                              {"reinforced_density_J_per_m2", e.designed.reinforced_density_J_per_m2},
                              {"full_reinforced_density_J_per_m2", e.full.reinforced_density_J_per_m2},
-                             {"density_ratio", e.density_ratio}});
+                             {"density_ratio", e.density_ratio},
+                             {"peak_pressure_Pa", e.designed.skin.peak_Pa},
+                             {"p95_pressure_Pa", e.designed.skin.p95_Pa}});
     else
-      std::printf("%-8s %12.6g %14.6g %14.6g %7.3f\n", e.name.c_str(), e.designed.reinforced_energy_J, e.designed.reinforced_density_J_per_m2,
-                  e.full.reinforced_density_J_per_m2, e.density_ratio);
+      std::printf("%-8s %12.6g %14.6g %14.6g %7.3f %9.3g %9.3g\n", e.name.c_str(), e.designed.reinforced_energy_J,
+                  e.designed.reinforced_density_J_per_m2, e.full.reinforced_density_J_per_m2, e.density_ratio, 1e-3 * e.designed.skin.peak_Pa,
+                  1e-3 * e.designed.skin.p95_Pa);
   }
   if (json) {
     j["worst_density_ratio"] = worst;

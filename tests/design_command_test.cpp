@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "core/scene/bodies_test_scene.h"
+#include "core/scene/scene_file.h"
 #include "store/design_file.h"
 
 namespace kgd {
@@ -225,6 +227,28 @@ TEST_F(DesignCommand, BadParametersAreRefused) {
   r = Kgd("design --resume " + Path("text.h5"));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("not an HDF5 file"), std::string::npos) << r.output;
+}
+
+// `kgd evaluate` of a design of several bodies gives each body's density ratio and the skin pressure
+// the garment puts on it.
+TEST_F(DesignCommand, EvaluateOnTheBodiesGivesEachBodysRatioAndSkinPressure) {
+  Result<SceneSpec> scene = SleeveForBodies({{"M", 0.05, 1}, {"L", 0.055, 1}}, BodyObjective::kWorst);
+  ASSERT_TRUE(scene.ok()) << scene.message();
+  ASSERT_TRUE(ExportScene(*scene, Path("bodies")).ok());
+  CommandRun r = Kgd("design " + Path("bodies/scene.json") + " --iterations 1 --budget 0.6 --er 0.05 --ar-max 0.05 --out " + Path("b.h5"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = Kgd("evaluate " + Path("b.h5") + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(r.output.substr(r.output.find('{')));
+  ASSERT_EQ(j["bodies"].size(), 2u) << r.output;
+  EXPECT_EQ(j["bodies"][0]["body"], "M");
+  EXPECT_EQ(j["bodies"][1]["body"], "L");
+  for (const auto& b : j["bodies"]) {
+    EXPECT_GT(b["p95_pressure_Pa"].get<double>(), 0) << b;
+    EXPECT_GE(b["peak_pressure_Pa"].get<double>(), b["p95_pressure_Pa"].get<double>()) << b;
+  }
+  r = Kgd("evaluate " + Path("b.h5"));
+  EXPECT_NE(r.output.find("peak_kPa"), std::string::npos) << r.output;
 }
 
 // Resuming after the scene's mesh was edited is refused with the first difference named.
