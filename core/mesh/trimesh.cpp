@@ -112,8 +112,10 @@ Status ValidateMesh(const Positions& x, const Faces& faces, const std::string& n
       if (i > 0 && (digits.size() - i) % 3 == 0) grouped += ',';
       grouped += digits[i];
     }
-    os << prefix << "the mesh is " << grouped << " m across: millimetres? kgd reads metres (SI); scale the mesh by "
-       << (across > 2000 ? "0.001" : "0.01");
+    // A body 1.7 m tall is 170 across in centimetres and 1,700 in millimetres.
+    const bool mm = across > 2000;
+    os << prefix << "the mesh is " << grouped << " m across: " << (mm ? "millimetres" : "centimetres")
+       << "? kgd reads metres (SI); scale the mesh by " << (mm ? "0.001" : "0.01");
     return Status::Error(os.str());
   }
   for (Eigen::Index f = 0; f < faces.rows(); ++f) {
