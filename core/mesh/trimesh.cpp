@@ -112,10 +112,9 @@ Status ValidateMesh(const Positions& x, const Faces& faces, const std::string& n
       if (i > 0 && (digits.size() - i) % 3 == 0) grouped += ',';
       grouped += digits[i];
     }
-    // A body 1.7 m tall is 170 across in centimetres and 1,700 in millimetres.
-    const bool mm = across > 2000;
-    os << prefix << "the mesh is " << grouped << " m across: " << (mm ? "millimetres" : "centimetres")
-       << "? kgd reads metres (SI); scale the mesh by " << (mm ? "0.001" : "0.01");
+    // The likelier unit first: a body is about 2 m across, 200 in centimetres, 2,000 in millimetres.
+    os << prefix << "the mesh is " << grouped << " m across, but kgd reads metres (SI): "
+       << (across > 1000 ? "millimetres? scale the mesh by 0.001 (centimetres: 0.01)" : "centimetres? scale the mesh by 0.01 (millimetres: 0.001)");
     return Status::Error(os.str());
   }
   for (Eigen::Index f = 0; f < faces.rows(); ++f) {

@@ -91,11 +91,11 @@ TEST(TriMesh, ValidateMeshNamesTheElement) {
   EXPECT_NE(ValidateFaceList({0, 5}, 2, "att").message().find("entry 1 is face 5"), std::string::npos);
   // A body in centimetres or millimetres: named as such, with the scale that makes it metres.
   x.row(3) << 0, 170, 0;
-  EXPECT_NE(ValidateMesh(x, f, "cm.obj").message().find("cm.obj: the mesh is 170 m across: centimetres? kgd reads metres (SI); scale the mesh by 0.01"),
+  EXPECT_NE(ValidateMesh(x, f, "cm.obj").message().find("cm.obj: the mesh is 170 m across, but kgd reads metres (SI): centimetres? scale the mesh by 0.01"),
             std::string::npos)
       << ValidateMesh(x, f, "cm.obj").message();
   x.row(3) << 0, 1700, 0;
-  EXPECT_NE(ValidateMesh(x, f, "mm.obj").message().find("the mesh is 1,700 m across: millimetres? kgd reads metres (SI); scale the mesh by 0.001"),
+  EXPECT_NE(ValidateMesh(x, f, "mm.obj").message().find("the mesh is 1,700 m across, but kgd reads metres (SI): millimetres? scale the mesh by 0.001"),
             std::string::npos)
       << ValidateMesh(x, f, "mm.obj").message();
 }

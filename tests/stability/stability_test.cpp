@@ -317,7 +317,8 @@ TEST(Stability, ASceneInMillimetresIsNamed) {
   ASSERT_TRUE(ExportScene(s, dir.string()).ok());
   Result<SceneSpec> loaded = LoadScene((dir / "scene.json").string());
   ASSERT_FALSE(loaded.ok());
-  EXPECT_NE(loaded.message().find("m across: millimetres?"), std::string::npos) << loaded.message();
+  EXPECT_NE(loaded.message().find("m across, but kgd reads metres (SI)"), std::string::npos) << loaded.message();
+  EXPECT_NE(loaded.message().find("millimetres"), std::string::npos) << loaded.message();
   std::filesystem::remove_all(dir);
 }
 
