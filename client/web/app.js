@@ -48,15 +48,12 @@ function pressureFigures(p) {
 
 // -- Submit --------------------------------------------------------------------------------------------
 
-function budgetOf(spec) {
-  if (spec?.optimizer?.budget) return spec.optimizer.budget;
-  const s = state.scenes.find((x) => x.name === spec?.builtinScene);
-  return s ? s.budget : 1;
-}
+const budgetOf = (spec) => jobStatus.budgetOf(spec, state.scenes);
 
 async function loadScenes() {
   const r = await api.scenes();
   state.scenes = r.scenes || [];
+  if (state.job) charts.setBudget(budgetOf(state.job.spec));  // a built-in scene's budget, now known
   state.machineFactorJobs = r.machineFactorJobs || 0;
   state.maxIterations = r.maxIterations || 0;  // the server's iteration limit (0: none)
   if (state.maxIterations) $('max-iterations').max = state.maxIterations;
@@ -216,8 +213,7 @@ async function submit(ev) {
       job = await api.postForm('/v1/jobs', form);
     }
     status(`job ${job.id} queued`);
-    await refreshJobs();
-    select(job.id);
+    showSubmitted(job);
   } catch (e) {
     showError(e.message);
   }
@@ -260,16 +256,36 @@ function renderJobs() {
   }
 }
 
-async function refreshJobs() {
+// One list request at a time: a list of jobs made from scene files carries their meshes (megabytes
+// each), and polls that overlap on a busy server would queue the job's stream and meshes behind them.
+let listing = null;
+function refreshJobs() {
+  if (!listing) listing = listJobs().finally(() => { listing = null; });
+  return listing;
+}
+
+async function listJobs() {
   try {
     const r = await api.jobs(50);
-    state.jobs = new Map((r.jobs || []).map((j) => [j.id, j]));
+    const listed = new Map((r.jobs || []).map((j) => [j.id, j]));
+    // A job submitted while this list was on its way stays (newest first).
+    const newest = Math.max(0, ...[...listed.keys()].map(Number));
+    const newer = [...state.jobs.values()].filter((j) => Number(j.id) > newest);
+    state.jobs = new Map([...newer.map((j) => [j.id, j]), ...listed]);
     renderJobs();
     compare.setJobs(state.jobs);
     status(`connected · ${state.jobs.size} job${state.jobs.size === 1 ? '' : 's'}`);
   } catch (e) {
     status(`server unreachable (${e.message})`);
   }
+}
+
+// A job just created: in the list and on screen at once (the next list refresh adds the others).
+function showSubmitted(job) {
+  state.jobs = new Map([[job.id, job], ...state.jobs]);
+  renderJobs();
+  select(job.id);
+  refreshJobs();
 }
 
 // -- One job: live view and explorer -------------------------------------------------------------------
@@ -327,6 +343,7 @@ async function select(id) {
     onJob: (job) => {
       state.job = job;
       state.jobs.set(job.id, job);
+      charts.setBudget(budgetOf(job.spec));
       renderJobs();
       showFailure(job);
       showMotionSummary(job);
@@ -542,7 +559,7 @@ loadScenes().catch((e) => status(`cannot load scenes: ${e.message}`));
 refreshJobs();
 setInterval(refreshJobs, 2000);
 // The studio (#studio) in the jobs view's place; a job it submits is shown in the jobs view.
-const studio = new Studio($('studio'), { onSubmitted: async (job) => { location.hash = '#jobs'; await refreshJobs(); select(job.id); } });
+const studio = new Studio($('studio'), { onSubmitted: (job) => { location.hash = '#jobs'; showSubmitted(job); } });
 window.kgd.studio = studio;
 function showView() {
   const inStudio = location.hash === '#studio';

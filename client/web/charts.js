@@ -66,9 +66,19 @@ function plot(el, series, opts = {}) {
       u.nearest = nearestPoint(u);
       return u.nearest ? u.nearest.idx : idx;
     };
+  const scales = { x: { time: false }, ...(opts.scales || {}) };
+  // Scatter charts: both axes padded, so that the outermost points' rings lie inside the plot.
+  if (opts.scatter) {
+    const padded = (u, min, max) => {
+      const d = max > min ? max - min : Math.abs(max) || 1;
+      return [min - 0.08 * d, max + 0.08 * d];
+    };
+    scales.x = { ...scales.x, range: padded };
+    scales.y = { ...scales.y, range: padded };
+  }
   const u = new uPlot({
     width: width(el), height: 180,
-    scales: { x: { time: false }, ...(opts.scales || {}) },
+    scales,
     axes: [{ label: opts.xLabel || 'iteration', size: 36 }, { size: 56 }],
     series: [{ label: opts.xLabel || 'iteration', ...(opts.xValue ? { value: opts.xValue } : {}) }, ...series],
     legend: { show: true, live: true },
@@ -176,6 +186,13 @@ export class RunCharts {
     this.rows = [];
     this.shown = -1;
     this.setMotions([]);
+    this.redraw();
+  }
+
+  // The budget line at this area fraction (the job's, once its spec is known).
+  setBudget(budget) {
+    if (budget === this.budget) return;
+    this.budget = budget;
     this.redraw();
   }
 

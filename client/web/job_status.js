@@ -144,6 +144,16 @@ export async function checkSceneUpload(sceneFile, files) {
   return null;
 }
 
+// The reinforced area fraction a job aims at: its spec's budget, else its scene file's, else its built-in
+// scene's (scenes: GET /v1/scenes), else kgd's default 0.15 (OptimizerSettings.budget).
+export const DEFAULT_BUDGET = 0.15;
+export function budgetOf(spec, scenes = []) {
+  if (spec?.optimizer?.budget) return spec.optimizer.budget;
+  if (spec?.sceneFiles?.scene?.budget) return spec.sceneFiles.scene.budget;
+  const s = scenes.find((x) => x.name === spec?.builtinScene);
+  return s?.budget || DEFAULT_BUDGET;
+}
+
 // Iterations a job probably still runs after its last stored one: down to the budget at ER per
 // iteration, then the convergence window, no more than its iteration limit allows.
 function iterationsLeft(job, budget) {

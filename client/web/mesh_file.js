@@ -10,7 +10,23 @@ export function parseMesh(name, bytes) {
   const r = name.toLowerCase().endsWith('.ply') ? parsePly(name, bytes) : parseObj(name, new TextDecoder().decode(bytes));
   if (r.error) return r;
   if (!r.faces.length) return { error: `${name} has no faces: a body is a surface of triangles or polygons` };
-  return r;
+  return extentProblem(name, r.vertices) || r;
+}
+
+// The server's limit on a mesh's bounding-box diagonal (core/mesh/trimesh.h kMaxMeshExtent_m): a
+// larger mesh was written in centimetres or millimetres.
+export const MAX_MESH_EXTENT_M = 20;
+
+// { error } in the server's words (core/mesh/trimesh.cpp ValidateMesh) for a mesh more than
+// MAX_MESH_EXTENT_M across, else null.
+function extentProblem(name, v) {
+  const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+  for (let i = 0; i < v.length; ++i) { lo[i % 3] = Math.min(lo[i % 3], v[i]); hi[i % 3] = Math.max(hi[i % 3], v[i]); }
+  const across = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+  if (!(across > MAX_MESH_EXTENT_M)) return null;
+  const mm = across > 2000;
+  const grouped = Math.round(across).toString().replace(/\B(?=(\d{3})+$)/g, ',');
+  return { error: `${name}: the mesh is ${grouped} m across: ${mm ? 'millimetres' : 'centimetres'}? kgd reads metres (SI); scale the mesh by ${mm ? '0.001' : '0.01'}` };
 }
 
 function parseObj(name, text) {

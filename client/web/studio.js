@@ -125,6 +125,7 @@ export class Studio {
     root.innerHTML = TEMPLATE;
     this.view = null;  // the PaintView, made when the studio is first shown (one WebGL context less until then)
     this.files = { rest: null, deformed: null, frames: [] };  // { name, bytes, mesh }
+    this.refused = { rest: null, deformed: null };  // why the file chosen for a pose was refused
     this.motions = [];  // further motions: { row, file: { name, bytes, mesh } | null, frames: [...] }
     this.answer = null;  // the newest check's answer (POST /v1/regions:check)
     this.serial = 0;
@@ -155,6 +156,7 @@ export class Studio {
         $('studio-upload').hidden = builtin;
         $('studio-builtin').hidden = !builtin;
         if (builtin) this.loadScenes();
+        this.showAnswer();
       });
     $('studio-builtin-load').addEventListener('click', () => this.loadBuiltin());
     $('studio-rest').addEventListener('change', () => this.loadRest());
@@ -207,6 +209,7 @@ export class Studio {
   setRest(r) {
     this.files.rest = null;
     this.answer = null;
+    this.refused.rest = r.error || null;
     if (r.error) { this.fileError(r.error); this.paint.clearBody(); this.showAnswer(); return; }
     this.files.rest = r;
     this.paint.setBody(r.mesh.vertices, r.mesh.faces);
@@ -263,6 +266,7 @@ export class Studio {
       }
       this.setRest(read[0]);
       this.files.deformed = read[1];
+      this.refused.deformed = null;
       this.files.frames = read.slice(2);
       $('studio-motion-name').value = name;
       note.textContent = `${name}'s body: ${read[0].mesh.faces.length / 3} faces${read.length > 2 ? `, ${read.length - 2} frames` : ''}.`;
@@ -290,10 +294,13 @@ export class Studio {
     this.fileError('');
     const file = $('studio-deformed').files[0];
     this.files[which] = null;
+    this.refused[which] = null;
     if (!file) return;
     const r = await this.readPose(file);
+    this.refused[which] = r.error || null;
     if (r.error) this.fileError(r.error);
     else this.files[which] = r;
+    this.showAnswer();
   }
 
   async loadFrames() {
@@ -455,7 +462,15 @@ export class Studio {
     const a = this.answer;
     box.innerHTML = '';
     const line = (text, cls) => { const p = document.createElement('p'); p.textContent = text; if (cls) p.className = cls; box.append(p); return p; };
-    if (!this.files.rest) { box.dataset.valid = 'none'; line('Upload the body\'s rest and deformed poses, then paint the garment region.'); return; }
+    if (!this.files.rest) {
+      const builtin = this.root.querySelector('input[name=studio-source]:checked').value === 'builtin';
+      box.dataset.valid = this.refused.rest && !builtin ? 'false' : 'none';
+      if (this.refused.rest && !builtin) line(readable(this.refused.rest), 'refusal');
+      line(builtin ? 'Choose a motion (and the body\'s measurements), press \'Make the body\', then paint the garment region.'
+        : 'Upload the body\'s rest and deformed poses, then paint the garment region.');
+      return;
+    }
+    if (this.refused.deformed) line(readable(this.refused.deformed), 'refusal');
     if (!a) {
       box.dataset.valid = this.failure ? 'false' : 'none';
       line(this.failure ? readable(this.failure) : 'Paint the garment region on the body (drag on it).', this.failure ? 'refusal' : '');
@@ -469,6 +484,8 @@ export class Studio {
     line(`After ${s} subdivision${s === 1 ? '' : 's'}: ${a.subdividedVertices ?? '?'} vertices, ${a.subdividedFaces ?? '?'} faces.`);
     const loops = a.loops || [];
     line(`${loops.length} boundary loop${loops.length === 1 ? '' : 's'}${loops.length ? `: ${loops.map((l) => cm(l.lengthM ?? 0)).join(', ')}` : ''}.`);
+    if ($('studio-fill-holes').checked && !a.filledFaces?.length && loops.length > 2)
+      line('Fill holes filled nothing: each loop encloses more than the hole-area limit (an opening, not a hole); paint over an opening to close it.');
     if (this.bandMode() === 'loops') {
       const bands = a.bands || [];
       const faces = new Set(bands.flatMap((b) => b.faces || []));
@@ -483,8 +500,8 @@ export class Studio {
   // { json: the scene, files: Map(path -> Uint8Array) } of what is painted and uploaded, or { error }.
   async sceneFiles() {
     const { rest, deformed, frames } = this.files;
-    if (!rest) return { error: 'Choose the body\'s rest pose (OBJ or PLY) first' };
-    if (!deformed) return { error: 'Choose the body\'s deformed pose (the rest pose\'s mesh moved) first' };
+    if (!rest) return { error: this.refused.rest ? `Choose another rest pose: ${this.refused.rest}` : 'Choose the body\'s rest pose (OBJ or PLY) first' };
+    if (!deformed) return { error: this.refused.deformed ? `Choose another deformed pose: ${this.refused.deformed}` : 'Choose the body\'s deformed pose (the rest pose\'s mesh moved) first' };
     const a = await this.current();
     if (!a) return { error: this.failure ? readable(this.failure) : 'Paint the garment region on the body first' };
     if (!a.valid) return { error: `The region is refused: ${a.refusal}` };

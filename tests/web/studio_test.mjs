@@ -38,13 +38,20 @@ await runBrowserTest('studio', async ({ page, base, check, until, artifacts }) =
   await page.goto(`${base}#studio`);
   await until('the studio', () => page.evaluate(() => !!window.kgdStudio && !document.getElementById('studio').hidden));
   check(await page.isHidden('#jobs-view'), '#studio shows the studio in the jobs view\'s place');
+  // The built-in body chosen: the status box says how to make it.
+  await page.check('input[name=studio-source][value=builtin]');
+  const builtinStatus = await page.textContent('#studio-status');
+  check(/press 'Make the body'/.test(builtinStatus), `the built-in body's status says what to do: "${builtinStatus}"`);
+  await page.check('input[name=studio-source][value=upload]');
 
   // A photo as the rest pose: refused on the page, naming the file.
   const png = path.join(tmp, 'rest.obj');
   fs.writeFileSync(png, Buffer.from([0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 13, 0x49, 0x48, 0x44, 0x52]));
   await page.setInputFiles('#studio-rest', png);
   const refusal = await until('the refusal', () => page.textContent('#studio-file-error'), 5000);
-  check(refusal.startsWith('rest.obj is not an OBJ or PLY mesh (line 1:') && !/[\u0000-\u0008]/.test(refusal), `a PNG chosen as the rest pose is refused: "${refusal}"`);
+  const statusBox = await page.textContent('#studio-status');
+  check(refusal.startsWith('rest.obj is not an OBJ or PLY mesh (line 1:') && !/[\u0000-\u0008]/.test(refusal) && statusBox.startsWith(refusal),
+    `a PNG chosen as the rest pose is refused, in the status box too: "${refusal}"`);
 
   // The body pair; a deformed pose of another mesh refused first, naming both files.
   await page.setInputFiles('#studio-rest', path.join(data, 'rest.obj'));
@@ -54,6 +61,14 @@ await runBrowserTest('studio', async ({ page, base, check, until, artifacts }) =
   const poseRefusal = await until('the pose refusal', () => page.textContent('#studio-file-error'), 5000);
   check(poseRefusal === 'triangle.obj has 3 vertices and 1 faces, the rest pose rest.obj 1242 and 2480: a pose must be the rest pose\'s mesh moved',
     `a deformed pose of another mesh is refused: "${poseRefusal}"`);
+  // A deformed pose in centimetres: refused as the server would (more than 20 m across).
+  const cmPose = path.join(tmp, 'deformed_cm.obj');
+  fs.writeFileSync(cmPose, fs.readFileSync(path.join(data, 'deformed.obj'), 'utf8').split('\n')
+    .map((l) => (l.startsWith('v ') ? `v ${l.trim().split(/\s+/).slice(1).map((x) => 100 * Number(x)).join(' ')}` : l)).join('\n'));
+  await page.setInputFiles('#studio-deformed', cmPose);
+  const cmRefusal = await until('the cm refusal', () => page.evaluate(() => /deformed_cm/.test(document.getElementById('studio-file-error').textContent) && document.getElementById('studio-file-error').textContent), 5000).catch(() => '');
+  check(/^deformed_cm\.obj: the mesh is [\d,]+ m across: centimetres\? kgd reads metres \(SI\); scale the mesh by 0\.01$/.test(cmRefusal),
+    `a deformed pose in centimetres is refused on the page: "${cmRefusal}"`);
   await page.setInputFiles('#studio-deformed', path.join(data, 'deformed.obj'));
   const nf = await until('the body in the view', () => page.evaluate(() => window.kgdStudio.paint.faceCount), 10000);
   const restFaces = fs.readFileSync(path.join(data, 'rest.obj'), 'utf8').split('\n').filter((l) => l.startsWith('f ')).reduce((n, l) => n + l.trim().split(/\s+/).length - 3, 0);
@@ -232,9 +247,21 @@ await runBrowserTest('studio', async ({ page, base, check, until, artifacts }) =
   await page.fill('#studio-label', 'studio');
   await page.click('#studio-submit');
   const id = await until('the job in the jobs view', () => page.evaluate(() => (!document.getElementById('jobs-view').hidden && window.kgd.state.selected) || null), 20000);
+  // The jobs view shows it without a reload: its garment in the 3D view, an iteration on the scrubber.
+  const live = await until('the job\'s garment on screen', () => page.evaluate((id) => {
+    const v = window.kgd.view, title = document.getElementById('viewer-title').textContent, scrub = document.getElementById('scrub-value').textContent;
+    return v.garment && v.x && scrub !== '–' && title === `Job ${id}` ? { title, scrub, state: window.kgd.state.job?.state } : null;
+  }, id), 120000).catch(() => null);
+  check(!!live, `after Submit the jobs view shows job ${id}'s garment (${live ? `"${live.title}", iteration ${live.scrub}, job ${live.state}` : 'none'})`);
   const job = await waitForEnd(base, id, 120000);
   check(job.state === 'SUCCEEDED' && job.spec.label === 'studio' && job.spec.optimizer.maxIterations === 3,
     `the submitted job ${id} ends ${job.state}${job.failure ? ` (${job.failure})` : ''} after ${job.iterations} iterations`);
+  const row = await until('the row SUCCEEDED', () => page.evaluate((id) => document.querySelector(`#jobs tr[data-id="${id}"] td:nth-child(3)`)?.textContent === 'SUCCEEDED'
+    && document.querySelector(`#jobs tr[data-id="${id}"]`).textContent, id), 20000).catch(() => '');
+  // A scene file's budget (its scene.json's, 30 %) is the chart's budget line, not 1.
+  const budgetLine = await page.evaluate(() => window.kgd.charts.area.data[2]);
+  check(!!row && budgetLine.length > 0 && budgetLine.every((b) => b === 0.3),
+    `the job's row reaches SUCCEEDED without a reload ("${row}"); the area chart's budget line is the scene file's 0.3 (${budgetLine[0]})`);
   await until('the cut file links', () => page.evaluate(() => !!document.querySelector('#downloads a[href*="cut/report.json"]')), 20000);
   const href = await page.getAttribute('#downloads a[href*="cut/report.json"]', 'href');
   const made = await fetch(new URL(href, base));
