@@ -182,7 +182,10 @@ export class CutPanel {
       }
       this.shownPreview = { id, n, query: q, iteration: report.iteration };
     } catch (e) {
-      if (request === this.request) this.summary.textContent = `No cut files: ${e.message}`;
+      // The server refused the export (e.g. a patch wider than the sheet): no links to files it will not make.
+      if (request !== this.request) return;
+      this.summary.textContent = `No cut files: ${e.message}`;
+      this.fileLinks.innerHTML = '';
     }
   }
 }

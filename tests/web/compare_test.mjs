@@ -62,6 +62,14 @@ await runBrowserTest('compare', async ({ page, base, check, until, artifacts }) 
   await until('iteration 1 on screen', () => page.evaluate(() => window.kgd.state.shown === 1), 10000).catch(() => {});
   check(/iteration 1\)/.test(curveLegend) && (await page.evaluate(() => window.kgd.state.shown)) === 1,
     `a click on the curve's point of iteration 1 shows it (legend "${curveLegend}")`);
+  // Every point's ring (6 px) lies inside the curve's axes: the newest (least area) too.
+  const rings = await page.evaluate(() => {
+    const u = window.kgd.charts.curve, r = 6 * (devicePixelRatio || 1), { left, top, width, height } = u.bbox;
+    const out = u.data[0].map((x, i) => [u.valToPos(x, 'x', true), u.valToPos(u.data[1][i], 'y', true)])
+      .filter(([px, py]) => px - r < left || px + r > left + width || py - r < top || py + r > top + height);
+    return { points: u.data[0].length, out: out.length };
+  });
+  check(rings.points > 2 && rings.out === 0, `the curve's ${rings.points} points' rings lie inside its axes (${rings.out} outside)`);
   await settled(page);
   // The cut-file options of the one job's view reach its download links; its sheets are previewed.
   await page.click('#cut-panel summary');
@@ -170,6 +178,14 @@ await runBrowserTest('compare', async ({ page, base, check, until, artifacts }) 
     && (await page.locator('#compare-cut a').count()) === 0 && await page.isDisabled('#compare-cut button'),
     `a seam allowance of 200 mm is refused on the page ("${optionError}"), with no links`);
   await page.fill('#compare-cut-seam-allowance', '');
+  // An export the server refuses (a 1 mm sheet): its message alone, no file links.
+  await page.fill('#compare-cut-sheet-width', '1');
+  await page.click('#compare-cut button');
+  const refused = await until('the refused export', () => page.evaluate(() => /^No cut files/.test(document.querySelector('#compare-cut .cut-summary').textContent)
+    && document.querySelector('#compare-cut .cut-summary').textContent), 30000).catch(() => '');
+  check(/wider than the 1 mm sheet/.test(refused) && (await page.locator('#compare-cut a').count()) === 0,
+    `an export refused by the server shows its message alone ("${refused}", ${await page.locator('#compare-cut a').count()} links)`);
+  await page.fill('#compare-cut-sheet-width', '400');
 
   // The preview's lines are visible: drawn as an image at the preview's size, the sheet's cut lines
   // (red) cover many pixels; the SVG as exported covers none at that size.
