@@ -265,8 +265,11 @@ struct JobService::Impl {
 
   std::string FilePath(int64_t id) const { return (fs::path(options.data_dir) / "jobs" / ("job-" + std::to_string(id) + ".h5")).string(); }
 
+  // A job as callers see it: its design file named, and its spec without the uploaded files' contents
+  // (megabytes of meshes per job in every listing and watch event; workers get them with their lease).
   void Decorate(v1::Job* job) const {
     if (job->iterations() > 0 || fs::exists(FilePath(job->id()))) job->set_data_file(FilePath(job->id()));
+    if (job->spec().has_scene_files()) job->mutable_spec()->mutable_scene_files()->clear_files();
   }
 
   // Opening repair: every job's design file holds exactly the iterations SQLite acknowledged, and none
@@ -477,6 +480,7 @@ ServiceStatus JobService::CreateJob(const Caller& caller, const v1::CreateJobReq
   Result<std::optional<v1::Job>> job = m.store->GetJob(*id);
   if (!job.ok() || !*job) return Internal(job.status());
   *out = **job;
+  m.Decorate(out);
   m.Log("job " + std::to_string(*id) + " queued");
   m.metrics.JobCreated();
   m.Notify();

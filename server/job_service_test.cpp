@@ -16,7 +16,10 @@
 #include <thread>
 
 #include "core/mesh/mesh_io.h"
+#include "core/scene/scene_file.h"
 #include "core/scene/shapes.h"
+#include "core/scene/builtin_scenes.h"
+#include "proto/job_spec.h"
 #include "proto/records.h"
 #include "job/fabrication_export.h"
 #include "server/job_results.h"
@@ -235,6 +238,36 @@ TEST(JobService, ASilentWorkersLeaseExpiresAndTheNextResumesFromTheLastAcknowled
   a.WaitEnded();
   EXPECT_EQ(Job(*s, job.id()).iterations(), 2);
   EXPECT_EQ(Job(*s, job.id()).state(), v1::RUNNING);
+}
+
+// A job made from an uploaded scene is listed, fetched and watched without its files' contents (megabytes
+// of meshes per job); the worker that leases it gets them whole.
+TEST(JobService, CallersSeeAnUploadedScenesJobWithoutItsFilesAndTheWorkerGetsThem) {
+  auto s = Open(Options(FreshDir("upload")));
+  ASSERT_TRUE(s);
+  const fs::path dir = fs::path(FreshDir("upload-scene"));
+  Result<SceneSpec> pull = PullTestScene("all_cloth");
+  ASSERT_TRUE(pull.ok());
+  ASSERT_TRUE(ExportScene(*pull, dir.string()).ok());
+  v1::CreateJobRequest req;
+  Result<v1::SceneFiles> files = ReadSceneFiles((dir / "scene.json").string());
+  ASSERT_TRUE(files.ok()) << files.message();
+  ASSERT_GT(files->files_size(), 0);
+  *req.mutable_spec()->mutable_scene_files() = *files;
+  v1::Job created;
+  const ServiceStatus st = s->CreateJob(kAlice, req, &created);
+  ASSERT_TRUE(st.ok()) << st.message;
+  EXPECT_TRUE(created.spec().has_scene_files());
+  EXPECT_EQ(created.spec().scene_files().files_size(), 0);
+  EXPECT_EQ(Job(*s, created.id()).spec().scene_files().files_size(), 0);
+  EXPECT_EQ(Job(*s, created.id()).spec().scene_files().scene().SerializeAsString(), files->scene().SerializeAsString());
+  v1::ListJobsResponse list;
+  ASSERT_TRUE(s->ListJobs(kAlice, {}, &list).ok());
+  ASSERT_EQ(list.jobs_size(), 1);
+  EXPECT_EQ(list.jobs(0).spec().scene_files().files_size(), 0);
+  const v1::LeaseJobResponse lease = Lease(*s, "a");
+  ASSERT_TRUE(lease.leased());
+  EXPECT_EQ(lease.spec().scene_files().files_size(), files->files_size());
 }
 
 TEST(JobService, AReopenedDataFolderQueuesItsLeasedJobsAgainWithEveryAcknowledgedIteration) {
