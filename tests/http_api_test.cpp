@@ -255,7 +255,8 @@ TEST_F(HttpApi, AWatchDroppedMidJobResumesWithLastEventIdWithNoGapAndNoDuplicate
 // the watch stream sends (what the page's charts read) carries both motions, each at a density ratio
 // of exactly 1 in the fully reinforced iteration 0 and the first one giving the iteration's own
 // figures; the ended job's last metrics carry the final motions, as the design file has them. (The job
-// is cancelled once iteration 0 is in: iteration 1 is still stored, and no evaluation is run.)
+// is cancelled once iteration 0 is in, so that no evaluation is run: iteration 1 is stored when the
+// worker had begun it, which depends on when the cancel reaches it.)
 TEST_F(HttpApi, ATwoMotionJobsMetricsCarryEachMotionAndTheEndedJobItsFinalMotions) {
   const v1::Job job = Create(R"({"builtinScene": "knee_brace", "optimizer": {"maxIterations": 1, "motionWeights": {"flex": 0.5}}, "label": "motions"})");
   ASSERT_EQ(job.spec().optimizer().motion_weights().at("flex"), 0.5);
@@ -270,7 +271,8 @@ TEST_F(HttpApi, ATwoMotionJobsMetricsCarryEachMotionAndTheEndedJobItsFinalMotion
   const v1::Job done = Get(id);
   ASSERT_TRUE(done.state() == v1::CANCELLED || done.state() == v1::SUCCEEDED) << v1::JobState_Name(done.state()) << " " << done.failure();
   ASSERT_EQ(static_cast<int>(streamed.size()), done.iterations());
-  ASSERT_EQ(streamed.size(), 2u);
+  ASSERT_GE(streamed.size(), 1u);
+  ASSERT_LE(streamed.size(), 2u);
   for (const v1::IterationMetrics& m : streamed) {
     ASSERT_EQ(m.motions_size(), 2) << "iteration " << m.iteration();
     EXPECT_EQ(m.motions(0).name(), "hyperextend");
@@ -288,14 +290,15 @@ TEST_F(HttpApi, ATwoMotionJobsMetricsCarryEachMotionAndTheEndedJobItsFinalMotion
       }
     }
   }
-  // The ended job's final motions, and iteration 1 read back from the design file.
-  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(done.last(), streamed[1])) << done.last().DebugString();
-  auto res = Service().Client().Get("/v1/jobs/" + id + "/iterations/1");
+  // The ended job's final motions, and its last iteration read back from the design file.
+  const v1::IterationMetrics& final_metrics = streamed.back();
+  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(done.last(), final_metrics)) << done.last().DebugString();
+  auto res = Service().Client().Get("/v1/jobs/" + id + "/iterations/" + std::to_string(final_metrics.iteration()));
   ASSERT_TRUE(res && res->status == 200);
   const v1::IterationMetrics from_file = Parse<v1::GetIterationResponse>(res->body).record().metrics();
   ASSERT_EQ(from_file.motions_size(), 2);
   for (int k = 0; k < 2; ++k)
-    EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(from_file.motions(k), streamed[1].motions(k))) << from_file.motions(k).DebugString();
+    EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(from_file.motions(k), final_metrics.motions(k))) << from_file.motions(k).DebugString();
 }
 
 // One sample of the Prometheus text at /metrics, e.g. Sample(text, "kgd_jobs{state=\"SUCCEEDED\"}"); -1: absent.
