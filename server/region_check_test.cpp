@@ -14,22 +14,12 @@
 #include "core/beso/design_constraints.h"
 #include "core/mesh/mesh_io.h"
 #include "core/scene/body_garment.h"
+#include "tests/studio_test_data.h"
 
 namespace kgd::server {
 namespace {
 
-const std::string kDir = std::string(KGD_SOURCE_DIR) + "/tests/data/studio/";
-
-std::string ReadText(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-std::string Join(const std::vector<int>& faces) {
-  std::string s;
-  for (int f : faces) s += std::to_string(f) + " ";
-  return s;
-}
+const std::string& kDir = kStudioDataDir;
 
 struct Studio {
   std::string obj = ReadText(kDir + "rest.obj");
@@ -71,7 +61,7 @@ struct Studio {
     RegionCheckRequest r;
     r.body_name = "rest.obj";
     r.body_bytes = obj;
-    r.faces = Join(faces);
+    r.faces = JoinFaces(faces);
     return r;
   }
 };
@@ -136,7 +126,7 @@ TEST(RegionCheck, TheMirrorOfThePaintedHalfIsTheRegionOfTheRules) {
   const std::vector<int> half = S().Left(band);
   ASSERT_EQ(half.size(), 400u);
   RegionCheckRequest r = S().Request(half);
-  r.keep_out = Join(S().Left(S().Between(1.08, 1.12)));
+  r.keep_out = JoinFaces(S().Left(S().Between(1.08, 1.12)));
   r.mirror = "true";
   Result<RegionCheckAnswer> a = CheckPaintedRegion(r, 1.0);
   ASSERT_TRUE(a.ok()) << a.message();
@@ -182,7 +172,7 @@ TEST(RegionCheck, TheMirrorOnABodySymmetricWithinTheToleranceLeavesNoGap) {
   RegionCheckRequest r;
   r.body_name = "tube.obj";
   r.body_bytes = obj.str();
-  r.faces = Join(painted);
+  r.faces = JoinFaces(painted);
   r.mirror = "true";
   Result<RegionCheckAnswer> a = CheckPaintedRegion(r, 1.0);
   ASSERT_TRUE(a.ok()) << a.message();
@@ -210,7 +200,7 @@ TEST(RegionCheck, KeepInBodyFacesBecomeTheGarmentFacesCutFromThem) {
   ASSERT_EQ(keep_in.size(), 80u);
   for (int s : {0, 1, 2}) {
     RegionCheckRequest r = S().Request(band);
-    r.keep_in = Join(keep_in);
+    r.keep_in = JoinFaces(keep_in);
     r.subdivisions = std::to_string(s);
     Result<RegionCheckAnswer> a = CheckPaintedRegion(r, 1.0);
     ASSERT_TRUE(a.ok()) << a.message();

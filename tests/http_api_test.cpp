@@ -22,6 +22,7 @@
 #include "kgd/v1/kgd.pb.h"
 #include "tests/child_process.h"
 #include "tests/kgd_cli.h"
+#include "tests/studio_test_data.h"
 // After the Eigen-using headers above: see server/http_gateway.cpp.
 #include <httplib.h>
 #include <nlohmann/json.hpp>
@@ -601,21 +602,10 @@ TEST_F(HttpApi, AnUploadedSceneFileWithItsMeshesRuns) {
   EXPECT_NE(res->body.find("INVALID_ARGUMENT"), std::string::npos) << res->body;
 }
 
-std::string ReadText(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-std::string Join(const std::vector<int>& faces) {
-  std::string s;
-  for (int f : faces) s += std::to_string(f) + " ";
-  return s;
-}
-
 // The studio page's region check on the studio test torso (tests/data/studio): the painted half mirrored
 // is the region and the bands `kgd region` wrote from sleeve_rules.txt; a refusal is kgd region's.
 TEST_F(HttpApi, ARegionCheckOfThePaintedHalfMirroredIsTheRegionAndBandsOfKgdRegion) {
-  const std::string dir = std::string(KGD_SOURCE_DIR) + "/tests/data/studio/";
+  const std::string& dir = kStudioDataDir;
   const std::string obj = ReadText(dir + "rest.obj");
   const Result<TriMesh> body = ParseMesh(obj, "rest.obj");
   ASSERT_TRUE(body.ok()) << body.message();
@@ -634,7 +624,7 @@ TEST_F(HttpApi, ARegionCheckOfThePaintedHalfMirroredIsTheRegionAndBandsOfKgdRegi
     items.insert(items.end(), parts.begin(), parts.end());
     return Service().Client().Post("/v1/regions:check", items);
   };
-  auto res = check({{"faces", Join(half), "", ""}, {"mirror", "true", "", ""}, {"attachWidthM", "0.02", "", ""}, {"keepIn", Join(keep_in), "", ""}});
+  auto res = check({{"faces", JoinFaces(half), "", ""}, {"mirror", "true", "", ""}, {"attachWidthM", "0.02", "", ""}, {"keepIn", JoinFaces(keep_in), "", ""}});
   ASSERT_TRUE(res);
   ASSERT_EQ(res->status, 200) << res->body;
   const nlohmann::json a = nlohmann::json::parse(res->body);
@@ -658,7 +648,7 @@ TEST_F(HttpApi, ARegionCheckOfThePaintedHalfMirroredIsTheRegionAndBandsOfKgdRegi
   std::vector<int> two;
   for (int f : *region)
     if (c(f, 1) < 1.06 || c(f, 1) > 1.14) two.push_back(f);
-  res = check({{"faces", Join(two), "", ""}});
+  res = check({{"faces", JoinFaces(two), "", ""}});
   ASSERT_TRUE(res);
   ASSERT_EQ(res->status, 200) << res->body;
   const nlohmann::json refused = nlohmann::json::parse(res->body);
@@ -674,7 +664,7 @@ TEST_F(HttpApi, ARegionCheckOfThePaintedHalfMirroredIsTheRegionAndBandsOfKgdRegi
 
 TEST_F(HttpApi, ARegionCheckAndASceneBodyNameThePartOfABadRequest) {
   auto cli = Service().Client();
-  const std::string obj = ReadText(std::string(KGD_SOURCE_DIR) + "/tests/data/studio/rest.obj");
+  const std::string obj = ReadText(kStudioDataDir + "rest.obj");
   auto post = [&](httplib::MultipartFormDataItems items) { return cli.Post("/v1/regions:check", items); };
   const std::string big(2 << 20, '#');
   struct Case {
