@@ -103,6 +103,8 @@ Result<BesoSettings> BesoSettingsFromJson(const std::string& text) {
   const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
   if (j.is_discarded() || !j.is_object()) return Status::Error("BESO settings: not a JSON object");
   BesoSettings s;
+  // Files written before the re-solves' tolerance factor existed ran every re-solve at the tolerance.
+  if (!j.contains("resolve_tolerance_factor")) s.resolve_tolerance_factor = 1.0;
   try {
     for (auto it = j.begin(); it != j.end(); ++it) {
       const std::string& k = it.key();

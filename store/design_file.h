@@ -122,6 +122,9 @@ Result<DesignFile> ReadDesignFile(const std::string& path, const DesignFileReadO
 
 // BESO settings as the JSON stored in /job (also used by the CLI for --json output).
 std::string BesoSettingsToJson(const BesoSettings& settings);
+// Unknown keys and invalid values are refused; a missing key takes the default, except
+// resolve_tolerance_factor, which takes 1 (the files written before it ran every re-solve at the
+// tolerance, so a resumed job continues as it ran).
 Result<BesoSettings> BesoSettingsFromJson(const std::string& json);
 
 }  // namespace kgd

@@ -542,6 +542,15 @@ TEST(DesignFile, SettingsJsonRoundTripsAndRejectsBadValues) {
   EXPECT_EQ(back->budget, 0.2);
   EXPECT_TRUE(back->keep_attachments);
   EXPECT_EQ(back->max_iterations, 17);
+  EXPECT_EQ(back->resolve_tolerance_factor, BesoSettings{}.resolve_tolerance_factor);
+  s.resolve_tolerance_factor = 3;
+  EXPECT_EQ(BesoSettingsFromJson(BesoSettingsToJson(s))->resolve_tolerance_factor, 3.0);
+  // A file written before the factor existed ran every re-solve at the tolerance: it resumes so.
+  const Result<BesoSettings> old = BesoSettingsFromJson("{\"budget\": 0.2}");
+  ASSERT_TRUE(old.ok()) << old.message();
+  EXPECT_EQ(old->resolve_tolerance_factor, 1.0);
+  EXPECT_NE(BesoSettings{}.resolve_tolerance_factor, 1.0);
+  EXPECT_FALSE(BesoSettingsFromJson("{\"resolve_tolerance_factor\": 0.5}").ok());
   EXPECT_FALSE(BesoSettingsFromJson("{\"budget\": 2}").ok());
   EXPECT_FALSE(BesoSettingsFromJson("{\"bugdet\": 0.2}").ok());
   EXPECT_FALSE(BesoSettingsFromJson("[1,2]").ok());

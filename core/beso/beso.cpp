@@ -23,8 +23,8 @@ Status ValidateBesoSettings(const BesoSettings& s) {
   if (!(s.tau > 0 && std::isfinite(s.tau))) return bad("tau", s.tau, "finite and > 0");
   if (s.converge_window < 1) return bad("converge_window", s.converge_window, ">= 1");
   if (s.max_iterations < 1) return bad("max_iterations", s.max_iterations, ">= 1");
-  if (!(s.shrinking_tolerance_factor >= 1 && std::isfinite(s.shrinking_tolerance_factor)))
-    return bad("shrinking_tolerance_factor", s.shrinking_tolerance_factor, "finite and >= 1");
+  if (!(s.resolve_tolerance_factor >= 1 && std::isfinite(s.resolve_tolerance_factor)))
+    return bad("resolve_tolerance_factor", s.resolve_tolerance_factor, "finite and >= 1");
   if (!(s.max_pressure_Pa >= 0 && std::isfinite(s.max_pressure_Pa))) return bad("max_pressure_Pa", s.max_pressure_Pa, "finite and >= 0 (0: no limit)");
   return Status::Ok();
 }

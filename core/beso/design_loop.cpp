@@ -43,8 +43,8 @@ bool ObjectiveFlat(const std::vector<BesoIteration>& history, bool target_reache
   return true;
 }
 
-// An allowed motion's re-solves (iterations after 0) stop at this many times the scene's gradient
-// tolerance. The allowed poses compress the garment (a sleeve bent to 120 degrees): its warm re-solves
+// An allowed motion's re-solves (iterations after 0) stop at no less than this many times the scene's
+// gradient tolerance (BesoSettings::resolve_tolerance_factor, when larger, for it as for every motion). The allowed poses compress the garment (a sleeve bent to 120 degrees): its warm re-solves
 // spend half their Newton iterations between 3x the tolerance and the tolerance, local steps over
 // membrane faces going slack and taut and vertices touching and leaving the body, and their figures
 // wander as much there as between two solves to the tolerance on different paths (docs/MODEL.md,
@@ -65,12 +65,14 @@ struct MotionState {
 };
 
 // Solves `m` at its current design from its last equilibrium (from the body when that fails, or when
-// `cold`), an allowed motion after iteration 0 to kAllowedMotionTolerance; errors name the motion.
-Result<SimulationResult> SolveMotion(MotionState* m, int iteration, bool cold) {
+// `cold`), after iteration 0 to the re-solves' tolerance (BesoSettings::resolve_tolerance_factor; an
+// allowed motion's at least kAllowedMotionTolerance); errors name the motion.
+Result<SimulationResult> SolveMotion(MotionState* m, int iteration, bool cold, double resolve_tolerance_factor) {
   const auto t0 = Clock::now();
   if (cold) m->x = m->scene.initial;
   SolverSettings solver = m->scene.solver;
-  if (m->motion.role == MotionRole::kAllow && iteration > 0) solver.grad_tol *= kAllowedMotionTolerance;
+  if (iteration > 0)
+    solver.grad_tol *= m->motion.role == MotionRole::kAllow ? std::max(resolve_tolerance_factor, kAllowedMotionTolerance) : resolve_tolerance_factor;
   m->sim->ResetFactorization();
   SolveReport report = SolveLagged(*m->sim, *m->sys, &m->x, solver);
   if (!report.at_equilibrium() && !cold) {
@@ -322,7 +324,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
       if (stored && last->motion_positions[k].rows() == st.x.rows() && last->motion_positions[k].allFinite()) {
         st.x = last->motion_positions[k];
         st.density = Summarize(*st.sys, st.x, st.scene.on_body, SolveReport{}).face_density_Pa;
-      } else if (Result<SimulationResult> r = SolveMotion(&st, last->iteration, true); !r.ok()) {
+      } else if (Result<SimulationResult> r = SolveMotion(&st, last->iteration, true, settings.resolve_tolerance_factor); !r.ok()) {
         return r.status();
       }
     }
@@ -416,8 +418,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
     sim.ResetFactorization();
     const auto t0 = Clock::now();
     SolverSettings solver = scene.solver;
-    if (it > 0 && settings.shrinking_tolerance_factor != 1.0 && !TargetReached(target, final_area))
-      solver.grad_tol *= settings.shrinking_tolerance_factor;
+    if (it > 0) solver.grad_tol *= settings.resolve_tolerance_factor;
     SolveReport report = SolveLagged(sim, sys, &x, solver);
     if (!report.at_equilibrium() && it > 0) {
       // From the last equilibrium the solver can wander into a path it cannot finish (a pleat pressed
@@ -436,7 +437,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
     motion_metrics.back().simulation_s = Since(t0);
     if (report.at_equilibrium())
       for (MotionState& st : others) {
-        Result<SimulationResult> rk = SolveMotion(&st, it, false);
+        Result<SimulationResult> rk = SolveMotion(&st, it, false, settings.resolve_tolerance_factor);
         if (!rk.ok()) return rk.status();
         if (it == 0) st.full_density = rk->reinforced_density_J_per_m2;
         motion_metrics.push_back(MetricsOfMotion(st.motion, *rk, st.full_density));
