@@ -150,7 +150,7 @@ std::string Document(const AccuracyStudy& st, const std::string& image_prefix, c
         "the design of the nearest face centroid).\n\n";
   // The presets, and the point the standard preset aims at.
   md << "## Presets\n\n`--quality` (kgd design, kgd submit, the job spec, the web form) picks one of these tolerances; as in "
-        "every job, the re-solves after iteration 0 stop at `--resolve-tol-factor` (default 20) times it. "
+        "every job, while the target area shrinks the re-solves after iteration 0 stop at `--resolve-tol-factor` (default 20) times it. "
      << "Whole job: the scene's set-up from the scene cache (a first build: " << Fmt("%.1f", st.setup_cold_s)
      << " s) plus the design loop.\n\n"
      << "| preset | grad_tol | per iteration (s) | iterations | whole job (s) | ratio (tight) | vs precise | Jaccard vs precise |\n"

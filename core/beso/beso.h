@@ -32,7 +32,7 @@ namespace kgd {
   X(int, converge_window, 5, "--window", "... over this many iterations, with the budget reached (default 5)")          \
   X(int, max_iterations, 400, "--iterations", "Stop after this BESO iteration at the latest (default 400)") \
   X(double, max_pressure_Pa, 0.0, "--max-pressure-kPa", "Skin pressure limit in every resisted motion's deformed pose, kPa (default: the scene's max_pressure_kPa; 0: none)") \
-  X(double, resolve_tolerance_factor, 20.0, "--resolve-tol-factor", "The re-solves of the iterations after 0 stop at this multiple of the solver tolerance, >= 1 (default 20; 1: every solve at it)")
+  X(double, resolve_tolerance_factor, 20.0, "--resolve-tol-factor", "While the target area shrinks, the re-solves stop at this multiple of the solver tolerance, >= 1 (default 20; 1: every solve at it)")
 // Switches: X(name, default, flag, proto field, help). The flag, and the proto field when true, turn
 // the switch away from its default.
 #define KGD_BESO_SWITCHES(X)                                                                                            \
@@ -57,12 +57,13 @@ namespace kgd {
 // resist_only: the scene's allowed motions get weight 0 (docs/MODEL.md, "Motions with roles").
 // max_pressure_Pa: the skin pressure every design's resisted motions may put on the body at most, Pa
 // (0: no limit; core/beso/pressure_limit.h). A flag named in kPa (--max-pressure-kPa) takes kPa.
-// resolve_tolerance_factor (F): every re-solve after iteration 0 (each motion's warm re-solve of a new
-// design) stops at F times the scene's grad_tol; iteration 0, the density ratios' reference, at the
-// scene's own. A design update needs the ranking of the elements near its threshold, not the
-// equilibrium to the last digit: at F = 20 the next design differs from the one a tight solve (1e-8)
-// gives on about 0.1 % of the garment area, at F = 1 on 0.05 % (bench/decision_benchmark,
-// docs/PERFORMANCE.md "A design iteration in Newton steps"). Design files without it ran at 1.
+// resolve_tolerance_factor (F): while the target area shrinks, every re-solve after iteration 0 (each
+// motion's warm re-solve of a new design) stops at F times the scene's grad_tol; iteration 0 (the
+// density ratios' reference) and the iterations at the budget (where the stop rule compares
+// objectives) at the scene's own. A design update needs the ranking of the elements near its
+// threshold, not the equilibrium to the last digit (what F changes in the next designs against a tight
+// solve: bench/decision_benchmark, docs/PERFORMANCE.md "A design iteration in Newton steps"). Design
+// files without it ran at 1.
 struct BesoSettings {
 #define KGD_DECLARE_BESO_VALUE(type, name, default_value, flag, help) type name = default_value;
   KGD_BESO_VALUES(KGD_DECLARE_BESO_VALUE)

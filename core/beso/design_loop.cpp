@@ -65,14 +65,15 @@ struct MotionState {
 };
 
 // Solves `m` at its current design from its last equilibrium (from the body when that fails, or when
-// `cold`), after iteration 0 to the re-solves' tolerance (BesoSettings::resolve_tolerance_factor; an
-// allowed motion's at least kAllowedMotionTolerance); errors name the motion.
-Result<SimulationResult> SolveMotion(MotionState* m, int iteration, bool cold, double resolve_tolerance_factor) {
+// `cold`), after iteration 0 to `tolerance_factor` times the scene's tolerance (the loop's: BesoSettings::
+// resolve_tolerance_factor while the target shrinks, else 1; an allowed motion's at least
+// kAllowedMotionTolerance); errors name the motion.
+Result<SimulationResult> SolveMotion(MotionState* m, int iteration, bool cold, double tolerance_factor) {
   const auto t0 = Clock::now();
   if (cold) m->x = m->scene.initial;
   SolverSettings solver = m->scene.solver;
   if (iteration > 0)
-    solver.grad_tol *= m->motion.role == MotionRole::kAllow ? std::max(resolve_tolerance_factor, kAllowedMotionTolerance) : resolve_tolerance_factor;
+    solver.grad_tol *= m->motion.role == MotionRole::kAllow ? std::max(tolerance_factor, kAllowedMotionTolerance) : tolerance_factor;
   m->sim->ResetFactorization();
   SolveReport report = SolveLagged(*m->sim, *m->sys, &m->x, solver);
   if (!report.at_equilibrium() && !cold) {
@@ -324,7 +325,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
       if (stored && last->motion_positions[k].rows() == st.x.rows() && last->motion_positions[k].allFinite()) {
         st.x = last->motion_positions[k];
         st.density = Summarize(*st.sys, st.x, st.scene.on_body, SolveReport{}).face_density_Pa;
-      } else if (Result<SimulationResult> r = SolveMotion(&st, last->iteration, true, settings.resolve_tolerance_factor); !r.ok()) {
+      } else if (Result<SimulationResult> r = SolveMotion(&st, last->iteration, true, 1.0); !r.ok()) {
         return r.status();
       }
     }
@@ -417,8 +418,11 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
     // (resumable bit for bit); within the iteration the factorization is reused as usual.
     sim.ResetFactorization();
     const auto t0 = Clock::now();
+    // While the target area shrinks the re-solves need only the ranking near the threshold; from the
+    // budget on the stop rule compares the objectives, at the scene's tolerance.
+    const double tolerance_factor = it > 0 && !TargetReached(target, final_area) ? settings.resolve_tolerance_factor : 1.0;
     SolverSettings solver = scene.solver;
-    if (it > 0) solver.grad_tol *= settings.resolve_tolerance_factor;
+    solver.grad_tol *= tolerance_factor;
     SolveReport report = SolveLagged(sim, sys, &x, solver);
     if (!report.at_equilibrium() && it > 0) {
       // From the last equilibrium the solver can wander into a path it cannot finish (a pleat pressed
@@ -437,7 +441,7 @@ Result<std::vector<BesoIteration>> RunBeso(const SceneSpec& scene_in, const Beso
     motion_metrics.back().simulation_s = Since(t0);
     if (report.at_equilibrium())
       for (MotionState& st : others) {
-        Result<SimulationResult> rk = SolveMotion(&st, it, false, settings.resolve_tolerance_factor);
+        Result<SimulationResult> rk = SolveMotion(&st, it, false, tolerance_factor);
         if (!rk.ok()) return rk.status();
         if (it == 0) st.full_density = rk->reinforced_density_J_per_m2;
         motion_metrics.push_back(MetricsOfMotion(st.motion, *rk, st.full_density));
