@@ -267,10 +267,11 @@ int RunDesigns(const std::string& path, bool json) {
     std::printf("%s\n", j.dump().c_str());
     return 0;
   }
-  std::printf("scene %s%s%s: %ld vertices, %ld faces, %.4g m^2; budget %.3g, ER %.3g, AR_max %.3g, p %.3g%s\n", h.scene.c_str(),
-              h.body.empty() ? "" : " ", h.body.c_str(), static_cast<long>(h.garment.vertices.rows()),
+  std::printf("scene %s%s%s: %ld vertices, %ld faces, %.4g m^2; budget %.3g, ER %.3g, AR_max %.3g, p %.3g, re-solves while shrinking at %gx "
+              "the tolerance%s\n", h.scene.c_str(), h.body.empty() ? "" : " ", h.body.c_str(), static_cast<long>(h.garment.vertices.rows()),
               static_cast<long>(h.garment.faces.rows()), h.rest_area_m2.sum(), h.settings.budget, h.settings.evolutionary_ratio,
-              h.settings.admission_ratio, h.settings.penalty, h.settings.keep_attachments ? ", attachments kept" : "");
+              h.settings.admission_ratio, h.settings.penalty, h.settings.resolve_tolerance_factor,
+              h.settings.keep_attachments ? ", attachments kept" : "");
   std::printf("%5s %8s %8s %12s %12s %12s %7s %6s %8s %8s\n", "iter", "area_%", "target_%", "energy_J", "reinf_J", "density_J/m2",
               "ratio", "newton", "sim_s", "total_s");
   double total = 0;

@@ -93,6 +93,7 @@ TEST_F(DesignCommand, RunsDeterministicallyAndResumesBitForBit) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("13 iterations"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("density_J/m2"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("re-solves while shrinking at 20x the tolerance"), std::string::npos) << r.output;
   r = Kgd("designs --json " + Path("a.h5"));
   ASSERT_EQ(r.exit_code, 0);
   EXPECT_NE(r.output.find("\"scene\":\"pull_test_all_cloth\""), std::string::npos) << r.output;
