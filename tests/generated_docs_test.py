@@ -151,7 +151,7 @@ class DocsHoldTheirBlocks(unittest.TestCase):
                 text = f.read()
             self.assertNotRegex(text, r"[Mm]achine [AB]\b", page)
         with open(os.path.join(SOURCE, "docs/PERFORMANCE.md")) as f:
-            self.assertLessEqual(len(f.read().splitlines()), 270)
+            self.assertLessEqual(len(f.read().splitlines()), 290)
 
 
 def gb_file(benchmarks):
