@@ -44,8 +44,9 @@ bool ObjectiveFlat(const std::vector<BesoIteration>& history, bool target_reache
 }
 
 // An allowed motion's re-solves (iterations after 0) stop at no less than this many times the scene's
-// gradient tolerance (BesoSettings::resolve_tolerance_factor, when larger, for it as for every motion). The allowed poses compress the garment (a sleeve bent to 120 degrees): its warm re-solves
-// spend half their Newton iterations between 3x the tolerance and the tolerance, local steps over
+// gradient tolerance (BesoSettings::resolve_tolerance_factor, when larger, for it as for every motion).
+// The allowed poses compress the garment (a sleeve bent to 120 degrees): its warm re-solves spend
+// half their Newton iterations between 3x the tolerance and the tolerance, local steps over
 // membrane faces going slack and taut and vertices touching and leaving the body, and their figures
 // wander as much there as between two solves to the tolerance on different paths (docs/MODEL.md,
 // "Motions with roles"; DECISIONS.md).
