@@ -47,6 +47,23 @@ TEST(Quality, PredictedJobsGrowWithGarmentPresetAndBudget) {
   EXPECT_EQ(PredictJobCost({.garment_faces = 13936, .frames = 4}, s).iterations, 10);
 }
 
+// While the target shrinks the re-solves stop at resolve_tolerance_factor x the tolerance: a job at the
+// default factor is predicted faster per iteration than one at 1, a larger factor no slower.
+TEST(Quality, TheResolvesToleranceFactorShortensThePredictedIterations) {
+  BesoSettings s;
+  const double at_default = PredictJobCost({.garment_faces = 13936, .frames = 4}, s).per_iteration_s;
+  s.resolve_tolerance_factor = 1;
+  const double at_one = PredictJobCost({.garment_faces = 13936, .frames = 4}, s).per_iteration_s;
+  s.resolve_tolerance_factor = 5;
+  const double at_five = PredictJobCost({.garment_faces = 13936, .frames = 4}, s).per_iteration_s;
+  s.resolve_tolerance_factor = 1000;
+  const double at_thousand = PredictJobCost({.garment_faces = 13936, .frames = 4}, s).per_iteration_s;
+  EXPECT_LT(at_default, 0.8 * at_one);
+  EXPECT_LT(at_five, at_one);
+  EXPECT_GT(at_five, at_default);
+  EXPECT_EQ(at_thousand, at_default);
+}
+
 TEST(Quality, AJobOfSeveralMotionsOrBodiesCostsTheirNumberTimesOnesSolves) {
   BesoSettings s;
   const JobCostPrediction one = PredictJobCost({.garment_faces = 5200, .frames = 4}, s);
