@@ -396,6 +396,14 @@ class BenchScripts(unittest.TestCase):
         self.assertIn("| **2.00** missed |", body)
         self.assertIn("not measured", body)
         self.assertIn("| **1.25** met |", ic.table({"load": 1.0, "steps": steps, "designs": {"knee_flexion": dict(s, median_s=0.125)}}))
+        # The decisions: per rule and scene the mean (largest) area share differing from a tight solve's, in %.
+        line = lambda scene, rule, mean: {"scene": scene, "rule": rule, "samples": 3, "changed_area_share_mean": mean,
+                                          "changed_area_share_max": 2 * mean, "newton_per_solve": 1.5}
+        d = ic.decisions_table({"decisions": [line("arm_flexion", "grad_tol", 0.0005), line("arm_flexion", "20 grad_tol", 0.002),
+                                              line("slouch", "20 grad_tol", 0.003)]})
+        self.assertIn("| the scene's grad_tol (F = 1) | 0.050 % (max 0.10 %), 1.5 Newton |  |", d)
+        self.assertIn("| 20 x grad_tol (default) | 0.200 % (max 0.40 %), 1.5 Newton | 0.300 % (max 0.60 %), 1.5 Newton |", d)
+        self.assertIn("arm_flexion 3, slouch 3", d)
 
     def test_effects_variants(self):
         eb = module("bench/effects_benchmark.py")
