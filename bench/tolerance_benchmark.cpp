@@ -13,7 +13,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
-#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -68,10 +67,7 @@ int Main(int argc, char** argv) {
       settings.budget = scene->budget;
       settings.resolve_tolerance_factor = factor < 0 ? 1.0 : factor;
       SceneSpec start = *scene;
-      std::mt19937_64 random(1);
-      std::uniform_real_distribution<double> nm(-1e-9, 1e-9);
-      if (factor < 0)
-        for (Eigen::Index i = 0; i < start.initial.size(); ++i) start.initial.data()[i] += nm(random);
+      if (factor < 0) study::MoveStartByANanometre(&start);
       std::vector<double> later;
       int newton = 0;
       Result<std::vector<BesoIteration>> run = RunBeso(start, settings, [&](const BesoIteration& it) {

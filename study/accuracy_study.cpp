@@ -42,6 +42,12 @@ struct Run : StudyRun {
 
 }  // namespace
 
+void MoveStartByANanometre(SceneSpec* scene) {
+  std::mt19937_64 random(1);
+  std::uniform_real_distribution<double> nm(-1e-9, 1e-9);
+  for (Eigen::Index i = 0; i < scene->initial.size(); ++i) scene->initial.data()[i] += nm(random);
+}
+
 // kTightGradTol; NaN when that solve does not reach equilibrium.
 double TightDensity(SceneSpec scene, const std::vector<uint8_t>& design) {
   scene.design = design;
@@ -174,9 +180,7 @@ void AddVariants(const SceneSpec& base, const BesoSettings& settings, bool quick
   if (quick) return;
   s = base;
   s.solver.grad_tol = PresetOf(Quality::kPrecise).grad_tol;
-  std::mt19937_64 random(1);
-  std::uniform_real_distribution<double> nm(-1e-9, 1e-9);
-  for (Eigen::Index i = 0; i < s.initial.size(); ++i) s.initial.data()[i] += nm(random);
+  MoveStartByANanometre(&s);
   runs->push_back(DesignRun(kRepeatKnob, Fmt("%.0e", s.solver.grad_tol) + ", start moved <= 1 nm", s, settings, false));
 }
 

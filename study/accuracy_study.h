@@ -25,6 +25,9 @@ inline constexpr double kTightGradTol = 1e-8;
 // kTightGradTol: the "tight" figure every design of the study is judged by; NaN when that solve does
 // not reach equilibrium.
 double TightDensity(SceneSpec scene, const std::vector<uint8_t>& design);
+// Moves every coordinate of the scene's start (`initial`) by a uniform draw in [-1, 1] nm (seeded: the
+// same move every call): a run as accurate as the scene's on another round-off path.
+void MoveStartByANanometre(SceneSpec* scene);
 // The knob of `precise` run again from a start moved by at most 1 nm.
 inline constexpr const char* kRepeatKnob = "precise, repeated";
 
