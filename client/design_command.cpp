@@ -31,6 +31,7 @@
 #include "core/mesh/mesh_io.h"
 #include "core/scene/body_garment.h"
 #include "core/scene/simulate.h"
+#include "core/util/pinned_kernels.h"
 #include "store/design_file.h"
 #include "core/scene/builtin_scenes.h"
 
@@ -69,6 +70,23 @@ void PrintMotions(const BesoIteration& it) {
                 m.reinforced_energy_J, m.density_ratio);
 }
 
+// A resume continues at the kernels its designs were computed with (core/util/pinned_kernels.h): when
+// this process runs another level, the program runs again at the file's (the writer closed first) and
+// this returns only with an error; a file of native or unpinned kernels resumes with a warning.
+Status ResumeAtKernelsOf(const std::string& path, const DesignFileHeader& header, std::unique_ptr<DesignFileWriter>* writer) {
+  const std::string running = RunningKernels();
+  if (header.kernels == running || running == kKernelsNative) return Status::Ok();
+  if (header.kernels != kKernelsX8664 && header.kernels != kKernelsX8664V3) {
+    std::fprintf(stderr, "kgd design: warning: %s was computed with %s kernels: the resumed designs are this machine's\n", path.c_str(),
+                 header.kernels.c_str());
+    return Status::Ok();
+  }
+  if (header.kernels == MachineKernelLevel() || header.kernels == kKernelsX8664)
+    std::fprintf(stderr, "kgd design: %s was computed with the %s kernels; resuming with them\n", path.c_str(), header.kernels.c_str());
+  writer->reset();
+  return PinNumericKernelsTo(header.kernels).WithContext(path + ": ");
+}
+
 int RunDesign(const DesignOptions& o) {
   const bool resume = !o.resume.empty();
   const v1::OptimizerSettings optimizer = ToProto(o.optimizer);
@@ -90,6 +108,7 @@ int RunDesign(const DesignOptions& o) {
     const int n = writer->num_iterations();
     Result<DesignFile> file = ReadDesignFile(path, {.arrays = true, .only_iteration = n - 1});
     if (!file.ok()) return Fail("design", file.message());
+    if (Status s = ResumeAtKernelsOf(path, file->header, &writer); !s.ok()) return Fail("design", s.message());
     Result<SceneSpec> scene = RebuildSceneOfDesignFile(path, file->header);
     if (!scene.ok()) return Fail("design", scene.message());
     job = ResumeDesignJob(std::move(scene).value(), std::move(file->header), std::move(file->iterations), path,
@@ -257,6 +276,7 @@ int RunDesigns(const std::string& path, bool json) {
     nlohmann::ordered_json j;
     j["scene"] = h.scene;
     j["body"] = h.body;
+    j["kernels"] = h.kernels;
     j["settings"] = nlohmann::json::parse(BesoSettingsToJson(h.settings));
     j["garment_vertices"] = h.garment.vertices.rows();
     j["garment_faces"] = h.garment.faces.rows();
@@ -268,10 +288,10 @@ int RunDesigns(const std::string& path, bool json) {
     return 0;
   }
   std::printf("scene %s%s%s: %ld vertices, %ld faces, %.4g m^2; budget %.3g, ER %.3g, AR_max %.3g, p %.3g, re-solves while shrinking at %gx "
-              "the tolerance%s\n", h.scene.c_str(), h.body.empty() ? "" : " ", h.body.c_str(), static_cast<long>(h.garment.vertices.rows()),
+              "the tolerance%s; %s kernels\n", h.scene.c_str(), h.body.empty() ? "" : " ", h.body.c_str(), static_cast<long>(h.garment.vertices.rows()),
               static_cast<long>(h.garment.faces.rows()), h.rest_area_m2.sum(), h.settings.budget, h.settings.evolutionary_ratio,
               h.settings.admission_ratio, h.settings.penalty, h.settings.resolve_tolerance_factor,
-              h.settings.keep_attachments ? ", attachments kept" : "");
+              h.settings.keep_attachments ? ", attachments kept" : "", h.kernels.c_str());
   std::printf("%5s %8s %8s %12s %12s %12s %7s %6s %8s %8s\n", "iter", "area_%", "target_%", "energy_J", "reinf_J", "density_J/m2",
               "ratio", "newton", "sim_s", "total_s");
   double total = 0;

@@ -7,6 +7,7 @@
 #include "core/beso/baselines.h"
 #include "core/scene/builtin_scenes.h"
 #include "core/scene/simulate.h"
+#include "core/util/pinned_kernels.h"
 #include "proto/job_spec.h"
 
 namespace kgd {
@@ -52,6 +53,7 @@ Result<DesignJob> NewDesignJob(SceneSpec scene, const v1::OptimizerSettings& opt
   DesignJob job;
   job.header.scene = std::move(scene_name);
   job.header.body = std::move(body);
+  job.header.kernels = RunningKernels();
   job.header.settings = *settings;
   job.header.garment = scene.garment;
   job.header.initial = scene.initial;

@@ -247,6 +247,9 @@ Result<std::unique_ptr<DesignFileReader>> OpenDesignFileReader(const std::string
     Result<BesoSettings> s = BesoSettingsFromJson(settings);
     if (!s.ok()) return Fail(path, "/job settings: " + s.message());
     h.settings = *s;
+    h.kernels = kKernelsX8664;  // files written before the level was recorded ran the x86-64 pin
+    if (H5Aexists(job, "kernels") > 0 && !ReadStringAttribute(job, "kernels", &h.kernels))
+      return Fail(path, "/job kernels cannot be read");
     std::string motions;
     if (H5Aexists(job, "motions") > 0) {
       if (!ReadStringAttribute(job, "motions", &motions)) return Fail(path, "/job motions cannot be read");
@@ -460,7 +463,7 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
     Id job(H5Gcreate2(m.file, "job", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
     ok = ok && job.ok() && WriteStringAttribute(job, "scene", h.scene) && WriteStringAttribute(job, "body", h.body) &&
          WriteStringAttribute(job, "settings", BesoSettingsToJson(h.settings)) &&
-         WriteStringAttribute(job, "kgd_version", KGD_VERSION) &&
+         WriteStringAttribute(job, "kgd_version", KGD_VERSION) && WriteStringAttribute(job, "kernels", h.kernels) &&
          (h.motions.empty() || WriteStringAttribute(job, "motions", MotionsToJson(h.motions)));
   }
   {

@@ -53,6 +53,7 @@
 
 #include "core/beso/design_loop.h"
 #include "core/mesh/trimesh.h"
+#include "core/util/pinned_kernels.h"
 #include "core/util/status.h"
 
 namespace kgd {
@@ -71,6 +72,10 @@ struct DesignFileHeader {
   TriMesh body_mesh;          // the body in the simulated pose; empty when the scene has none
   // The scene's motions: name, role, weight (the figures unused). Empty: one motion, the scene's.
   std::vector<MotionMetrics> motions;
+  // The numeric kernels the designs were computed with (core/util/pinned_kernels.h): "x86-64-v3",
+  // "x86-64", "native" or "unpinned" (RunningKernels() of the process that ran iteration 0); a file
+  // without it reads "x86-64". A resume runs at this level.
+  std::string kernels;
 };
 
 struct DesignFile {
