@@ -118,34 +118,74 @@ TEST_F(DesignCommand, AJobGivesTheSameDesignsBitForBitOnEveryCpuAndResumedOnAnot
   std::vector<std::string> cores = {"Prescott", "Nehalem"};
   if (__builtin_cpu_supports("avx")) cores.push_back("Sandybridge");
   if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) cores.push_back("Haswell");
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
+      __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512cd"))
+    cores.push_back("SkylakeX");
   const std::string native = cores.back();
   const std::string other = cores.size() > 2 ? cores[cores.size() - 2] : "Prescott";
   auto run = [&](const std::string& env, const std::string& args) {
     const CommandRun r = KgdOn(env, args);
     EXPECT_EQ(r.exit_code, 0) << env << " " << args << "\n" << r.output;
+    return r;
   };
-  run("OPENBLAS_CORETYPE=" + native, kCpuJob + " --iterations 30 --out " + Path("native.h5"));
-  run("OPENBLAS_CORETYPE=" + other + " GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2", kCpuJob + " --iterations 30 --out " + Path("other.h5"));
-  run("OPENBLAS_CORETYPE=Prescott", kCpuJob + " --iterations 30 --out " + Path("prescott.h5"));
-  // Stopped after iteration 12 on one machine, resumed on another.
-  run("OPENBLAS_CORETYPE=" + native, kCpuJob + " --iterations 12 --out " + Path("resumed.h5"));
-  run("OPENBLAS_CORETYPE=" + other + " GLIBC_TUNABLES=glibc.cpu.hwcaps=-FMA", "design --resume " + Path("resumed.h5") + " --iterations 30");
-  const Result<DesignFile> a = ReadDesignFile(Path("native.h5")), b = ReadDesignFile(Path("other.h5")),
-                           c = ReadDesignFile(Path("prescott.h5")), d = ReadDesignFile(Path("resumed.h5"));
-  ASSERT_TRUE(a.ok() && b.ok() && c.ok() && d.ok());
-  ASSERT_EQ(a->iterations.size(), 31u);
-  ExpectSameDesigns(*a, *b);
-  ExpectSameDesigns(*a, *c);
-  ExpectSameDesigns(*a, *d);
+  // Each kernel level this machine runs (core/util/pinned_kernels.h), chosen with KGD_KERNELS.
+  std::vector<std::string> levels = {"x86-64"};
+  if (__builtin_cpu_supports("x86-64-v3")) levels.push_back("x86-64-v3");
+  std::map<std::string, DesignFile> full;
+  for (const std::string& level : levels) {
+    SCOPED_TRACE(level);
+    const std::string at = "KGD_KERNELS=" + level + " ";
+    const std::string file = level + "_";
+    run(at + "OPENBLAS_CORETYPE=" + native, kCpuJob + " --iterations 30 --out " + Path(file + "native.h5"));
+    run(at + "OPENBLAS_CORETYPE=" + other + " GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2", kCpuJob + " --iterations 30 --out " + Path(file + "other.h5"));
+    run(at + "OPENBLAS_CORETYPE=Prescott", kCpuJob + " --iterations 30 --out " + Path(file + "prescott.h5"));
+    // Stopped after iteration 12 on one machine, resumed on another.
+    run(at + "OPENBLAS_CORETYPE=" + native, kCpuJob + " --iterations 12 --out " + Path(file + "resumed.h5"));
+    run(at + "OPENBLAS_CORETYPE=" + other + " GLIBC_TUNABLES=glibc.cpu.hwcaps=-FMA", "design --resume " + Path(file + "resumed.h5") + " --iterations 30");
+    const Result<DesignFile> a = ReadDesignFile(Path(file + "native.h5")), b = ReadDesignFile(Path(file + "other.h5")),
+                             c = ReadDesignFile(Path(file + "prescott.h5")), d = ReadDesignFile(Path(file + "resumed.h5"));
+    ASSERT_TRUE(a.ok() && b.ok() && c.ok() && d.ok());
+    ASSERT_EQ(a->iterations.size(), 31u);
+    EXPECT_EQ(a->header.kernels, level);
+    EXPECT_EQ(d->header.kernels, level);
+    ExpectSameDesigns(*a, *b);
+    ExpectSameDesigns(*a, *c);
+    ExpectSameDesigns(*a, *d);
+    full.emplace(level, *a);
+  }
+  if (levels.size() < 2) GTEST_SKIP() << "this CPU runs only the x86-64 level";
+
+  // The levels are different kernels: the same job rounds differently.
+  const DesignFile &base = full.at("x86-64"), &v3 = full.at("x86-64-v3");
+  bool differ = false;
+  for (size_t k = 0; !differ && k < base.iterations.size(); ++k) differ = base.iterations[k].energy_J != v3.iterations[k].energy_J;
+  EXPECT_TRUE(differ) << "the x86-64 and x86-64-v3 pins gave identical results: the level pin does not change the kernels";
+
+  // A job resumes at its own level: an x86-64 job continued on this x86-64-v3 machine runs the x86-64
+  // kernels again and gives the x86-64 designs ...
+  run("KGD_KERNELS=x86-64", kCpuJob + " --iterations 12 --out " + Path("down.h5"));
+  CommandRun r = run("", "design --resume " + Path("down.h5") + " --iterations 30");
+  EXPECT_NE(r.output.find("computed with the x86-64 kernels; resuming with them"), std::string::npos) << r.output;
+  const Result<DesignFile> down = ReadDesignFile(Path("down.h5"));
+  ASSERT_TRUE(down.ok());
+  ExpectSameDesigns(base, *down);
+  // ... and an x86-64-v3 job is refused where only x86-64 may run, the file untouched.
+  run("", kCpuJob + " --iterations 12 --out " + Path("up.h5"));
+  r = KgdOn("KGD_KERNELS=x86-64", "design --resume " + Path("up.h5") + " --iterations 30");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("computed with the x86-64-v3 kernels, which this machine does not run"), std::string::npos) << r.output;
+  const Result<DesignFile> up = ReadDesignFile(Path("up.h5"), {.arrays = false});
+  ASSERT_TRUE(up.ok());
+  EXPECT_EQ(up->iterations.size(), 13u);
 
   // The variation is real: with the machine's own kernels (KGD_NATIVE_KERNELS), the same job rounds
-  // differently under another CPU's kernels. Only where this CPU has FMA, which the pin takes away.
-  if (native != "Haswell") GTEST_SKIP() << "this CPU has no AVX2/FMA: its native kernels are the pinned ones' kind";
+  // differently under another CPU's kernels.
   run("KGD_NATIVE_KERNELS=1 OPENBLAS_CORETYPE=Haswell", kCpuJob + " --iterations 30 --out " + Path("free_haswell.h5"));
   run("KGD_NATIVE_KERNELS=1 OPENBLAS_CORETYPE=Prescott", kCpuJob + " --iterations 30 --out " + Path("free_prescott.h5"));
   const Result<DesignFile> e = ReadDesignFile(Path("free_haswell.h5")), f = ReadDesignFile(Path("free_prescott.h5"));
   ASSERT_TRUE(e.ok() && f.ok());
-  bool differ = e->iterations.size() != f->iterations.size();
+  EXPECT_EQ(e->header.kernels, "native");
+  differ = e->iterations.size() != f->iterations.size();
   for (size_t k = 0; !differ && k < e->iterations.size(); ++k) differ = e->iterations[k].energy_J != f->iterations[k].energy_J;
   EXPECT_TRUE(differ) << "unpinned kernels gave identical results: the test's machines are not different enough";
 }
