@@ -75,6 +75,7 @@ TEST(DesignFile, RoundTripsAHistoryBitForBit) {
   header.body_mesh.vertices.array() += 0.01;
   header.cloth_thickness_m = 0.27e-3;
   header.reinforced_thickness_m = 0.5e-3;
+  header.kernels = "x86-64-v3";
   {
     auto w = DesignFileWriter::Create(path, header);
     ASSERT_TRUE(w.ok()) << w.message();
@@ -95,6 +96,7 @@ TEST(DesignFile, RoundTripsAHistoryBitForBit) {
   EXPECT_TRUE(d->header.body_mesh.faces == header.body_mesh.faces);
   EXPECT_EQ(d->header.cloth_thickness_m, 0.27e-3);
   EXPECT_EQ(d->header.reinforced_thickness_m, 0.5e-3);
+  EXPECT_EQ(d->header.kernels, "x86-64-v3");
   ASSERT_EQ(d->iterations.size(), f.run.size());
   for (size_t k = 0; k < f.run.size(); ++k) ExpectSame(d->iterations[k], f.run[k]);
 
@@ -241,6 +243,25 @@ TEST(DesignFile, ReopenKeepsThePrefixAndResumedRunsMatchUninterruptedOnes) {
 
 // A file written before the solve profile existed (no datasets for it) reads the profile as 0, and a
 // resumed run adds the datasets: the old rows read 0, the new ones their values.
+// A file from before the kernel level was recorded ran the x86-64 pin (core/util/pinned_kernels.h).
+TEST(DesignFile, AFileWithoutItsKernelLevelReadsX8664) {
+  const Fixture f = MakeRun(1);
+  const std::string path = TempPath("no_kernels.h5");
+  DesignFileHeader header = f.header;
+  header.kernels = "x86-64-v3";
+  ASSERT_TRUE(DesignFileWriter::Create(path, header).ok());
+  {
+    const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+    ASSERT_GE(H5Adelete_by_name(file, "job", "kernels", H5P_DEFAULT), 0);
+    H5Fclose(file);
+  }
+  const Result<DesignFile> d = ReadDesignFile(path);
+  ASSERT_TRUE(d.ok()) << d.message();
+  EXPECT_EQ(d->header.kernels, "x86-64");
+  std::filesystem::remove(path);
+}
+
 TEST(DesignFile, AFileWithoutTheSolveProfileReadsItAsZeroAndGainsItWhenResumed) {
   const Fixture f = MakeRun(4);
   ASSERT_GT(f.run[1].membrane_s, 0.0);
