@@ -28,6 +28,7 @@
 #include "core/scene/builtin_scenes.h"
 #include "core/scene/motion_test_scene.h"
 #include "core/scene/scene_file.h"
+#include "core/util/pinned_kernels.h"
 
 namespace kgd {
 namespace {
@@ -326,6 +327,22 @@ TEST(BuiltinScenes, TheSceneCacheGivesTheSameSceneAndIgnoresADamagedEntry) {
   BodyMeasurements taller;
   taller.height_m = 1.85;
   EXPECT_FALSE(LoadCachedScene(cache, "knee_extension", taller).has_value());
+  // A program running other numeric kernels (core/util/pinned_kernels.h), another entry: the scene it
+  // builds differs in its last bits.
+  {
+    const char* vars[] = {"OPENBLAS_CORETYPE", "GLIBC_TUNABLES", "KGD_PINNED_KERNELS"};
+    std::vector<std::optional<std::string>> saved;
+    for (const char* v : vars) saved.push_back(std::getenv(v) ? std::optional<std::string>(std::getenv(v)) : std::nullopt);
+    setenv("OPENBLAS_CORETYPE", "Prescott", 1);
+    setenv("GLIBC_TUNABLES", "glibc.cpu.hwcaps=-FMA,-FMA4", 1);
+    setenv("KGD_PINNED_KERNELS", "x86-64", 1);
+    ASSERT_EQ(RunningKernels(), "x86-64");
+    EXPECT_FALSE(LoadCachedScene(cache, "knee_extension", BodyMeasurements()).has_value());
+    for (size_t k = 0; k < saved.size(); ++k)
+      if (saved[k]) setenv(vars[k], saved[k]->c_str(), 1);
+      else unsetenv(vars[k]);
+    EXPECT_TRUE(LoadCachedScene(cache, "knee_extension", BodyMeasurements()).has_value());
+  }
   // A damaged file: the entry is not used.
   std::filesystem::path obj;
   for (const auto& e : std::filesystem::recursive_directory_iterator(dir))

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/scene/scene_file.h"
+#include "core/util/pinned_kernels.h"
 
 namespace kgd {
 namespace fs = std::filesystem;
@@ -48,7 +49,7 @@ std::string Hex(uint64_t v) {
   return b;
 }
 
-// The folder of one scene: name, measurements and the program's identity.
+// The folder of one scene: name, measurements, the program's identity and its kernel level.
 fs::path EntryDir(const std::string& dir, const std::string& name, const BodyMeasurements& m) {
   if (dir.empty()) return {};
   struct stat st {};
@@ -59,6 +60,9 @@ fs::path EntryDir(const std::string& dir, const std::string& name, const BodyMea
     key = Fnv(&st.st_size, sizeof st.st_size, key);
     key = Fnv(&st.st_mtim, sizeof st.st_mtim, key);
   }
+  // A scene built with other numeric kernels differs in its last bits (core/util/pinned_kernels.h).
+  const std::string kernels = RunningKernels();
+  key = Fnv(kernels.data(), kernels.size(), key);
   return fs::path(dir) / "scenes" / (name + "-" + Hex(key));
 }
 

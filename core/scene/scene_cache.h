@@ -3,7 +3,8 @@
 //
 // A built-in scene of the paper's motions is written once (ExportScene: meshes at full precision) to a
 // folder named by a key: the scene name, the body measurements and the identity of the running program
-// (its size and modification time, so a rebuilt kgd never reads another's scenes). A manifest holds a
+// (its size and modification time, so a rebuilt kgd never reads another's scenes) and the numeric kernels it
+// runs (core/util/pinned_kernels.h: a scene built at another level differs in its last bits). A manifest holds a
 // content hash (64-bit FNV-1a) of every file; a folder whose files do not match it is ignored and
 // written again. Loading a cached scene gives the same scene bit for bit (builtin_scenes_test).
 //
