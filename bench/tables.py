@@ -259,12 +259,16 @@ def export(r):
 
 def pinned(r):
     d = r.kind("pinned")
-    a, b = d["native"], d["pinned"]
-    part = lambda what, key, fmt: f"{what} {b[key]:{fmt}} s against {a[key]:{fmt}} s ({100 * (b[key] / a[key] - 1):+.0f} %)"
-    return [f"`kgd design arm_flexion`, pinned against the machine's own kernels (`KGD_NATIVE_KERNELS=1`): "
-            + ", ".join((part("iteration 0 (cold solve, fully reinforced)", "first_s", ".2f"),
-                         part(f"the mean of iterations 1-{b['iterations']}", "mean_later_s", ".3f"),
-                         part(f"the whole loop of {b['iterations'] + 1} iterations", "loop_s", ".1f"))) + "."]
+    a = d["native"]
+    part = lambda b, what, key, fmt: f"{what} {b[key]:{fmt}} s against {a[key]:{fmt}} s ({100 * (b[key] / a[key] - 1):+.0f} %)"
+    # The highest level is the one kgd chooses on the machine.
+    levels = list(d["levels"].items())[::-1]
+    return [f"`kgd design arm_flexion` at each kernel level this machine runs, against its own kernels (`KGD_NATIVE_KERNELS=1`):"] + [
+        f"- {level}{' (the default here)' if k == 0 else ''}: "
+        + ", ".join((part(b, "iteration 0 (cold solve, fully reinforced)", "first_s", ".2f"),
+                     part(b, f"the mean of iterations 1-{b['iterations']}", "mean_later_s", ".3f"),
+                     part(b, f"the whole loop of {b['iterations'] + 1} iterations", "loop_s", ".1f"))) + "."
+        for k, (level, b) in enumerate(levels)]
 
 
 EFFECTS = {

@@ -1,5 +1,7 @@
 #include "client/study_command.h"
 
+#include "core/util/pinned_kernels.h"
+
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -56,8 +58,9 @@ void AddStudyCommand(CLI::App& app, int* exit_code) {
   acc->add_flag("--quick", o.quick, "Three tolerances, no resolutions and no repeat of precise (minutes, for trying the command)");
   acc->callback([f, exit_code] { *exit_code = RunStudy(*f); });
 
-  app.add_subcommand("machine", "The date (UTC), CPU model and cores, as every generated table's header gives them")
-      ->callback([] { std::printf("%s\n", study::MachineLine().c_str()); });
+  app.add_subcommand("machine", "The date (UTC), CPU model, cores, memory and the kernel level kgd runs here, as every generated "
+                                 "table's header gives them")
+      ->callback([] { std::printf("%s, kernels %s\n", study::MachineLine().c_str(), RunningKernels().c_str()); });
 }
 
 }  // namespace kgd::cli
