@@ -277,6 +277,8 @@ int RunDesigns(const std::string& path, bool json) {
     j["scene"] = h.scene;
     j["body"] = h.body;
     j["kernels"] = h.kernels;
+    j["grad_tol"] = h.grad_tol;
+    j["max_newton_iterations"] = h.max_newton_iterations;
     j["settings"] = nlohmann::json::parse(BesoSettingsToJson(h.settings));
     j["garment_vertices"] = h.garment.vertices.rows();
     j["garment_faces"] = h.garment.faces.rows();
@@ -287,11 +289,14 @@ int RunDesigns(const std::string& path, bool json) {
     std::printf("%s\n", j.dump().c_str());
     return 0;
   }
+  char tol[64] = "";
+  if (h.grad_tol > 0) std::snprintf(tol, sizeof tol, "; solves to grad_tol %g", h.grad_tol);
   std::printf("scene %s%s%s: %ld vertices, %ld faces, %.4g m^2; budget %.3g, ER %.3g, AR_max %.3g, p %.3g, re-solves while shrinking at %gx "
-              "the tolerance%s; %s kernels\n", h.scene.c_str(), h.body.empty() ? "" : " ", h.body.c_str(), static_cast<long>(h.garment.vertices.rows()),
+              "the tolerance%s; %s kernels%s\n", h.scene.c_str(), h.body.empty() ? "" : " ", h.body.c_str(), static_cast<long>(h.garment.vertices.rows()),
               static_cast<long>(h.garment.faces.rows()), h.rest_area_m2.sum(), h.settings.budget, h.settings.evolutionary_ratio,
               h.settings.admission_ratio, h.settings.penalty, h.settings.resolve_tolerance_factor,
-              h.settings.keep_attachments ? ", attachments kept" : "", h.kernels.c_str());
+              h.settings.keep_attachments ? ", attachments kept" : "", h.kernels.c_str(),
+              tol);
   std::printf("%5s %8s %8s %12s %12s %12s %7s %6s %8s %8s\n", "iter", "area_%", "target_%", "energy_J", "reinf_J", "density_J/m2",
               "ratio", "newton", "sim_s", "total_s");
   double total = 0;

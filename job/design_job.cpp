@@ -54,6 +54,8 @@ Result<DesignJob> NewDesignJob(SceneSpec scene, const v1::OptimizerSettings& opt
   job.header.scene = std::move(scene_name);
   job.header.body = std::move(body);
   job.header.kernels = RunningKernels();
+  job.header.grad_tol = scene.solver.grad_tol;
+  job.header.max_newton_iterations = scene.solver.max_iterations;
   job.header.settings = *settings;
   job.header.garment = scene.garment;
   job.header.initial = scene.initial;
@@ -79,6 +81,9 @@ Result<DesignJob> ResumeDesignJob(SceneSpec scene, DesignFileHeader header, std:
   KGD_RETURN_IF_ERROR(CheckStoredGarment(scene, header, source));
   if (max_iterations > 0) header.settings.max_iterations = max_iterations;
   KGD_RETURN_IF_ERROR(ValidateBesoSettings(header.settings));
+  // The solves as the job ran them (its quality), not the rebuilt scene's defaults.
+  if (header.grad_tol > 0) scene.solver.grad_tol = header.grad_tol;
+  if (header.max_newton_iterations > 0) scene.solver.max_iterations = header.max_newton_iterations;
   // The motions weigh what the job gave them (the stored /job motions), not the rebuilt scene's defaults.
   for (SceneMotion& m : scene.motions)
     for (const MotionMetrics& stored : header.motions)

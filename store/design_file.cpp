@@ -250,6 +250,17 @@ Result<std::unique_ptr<DesignFileReader>> OpenDesignFileReader(const std::string
     h.kernels = kKernelsX8664;  // files written before the level was recorded ran the x86-64 pin
     if (H5Aexists(job, "kernels") > 0 && !ReadStringAttribute(job, "kernels", &h.kernels))
       return Fail(path, "/job kernels cannot be read");
+    if (H5Aexists(job, "solver") > 0) {
+      std::string solver;
+      if (!ReadStringAttribute(job, "solver", &solver)) return Fail(path, "/job solver cannot be read");
+      const nlohmann::json j = nlohmann::json::parse(solver, nullptr, false);
+      if (!j.is_object() || !j.value("grad_tol", nlohmann::json()).is_number() ||
+          !j.value("max_newton_iterations", nlohmann::json()).is_number_integer() || !(j["grad_tol"].get<double>() >= 0) ||
+          j["max_newton_iterations"].get<int>() < 0)
+        return Fail(path, "/job solver '" + solver + "' is not {\"grad_tol\": >= 0, \"max_newton_iterations\": >= 0}");
+      h.grad_tol = j["grad_tol"].get<double>();
+      h.max_newton_iterations = j["max_newton_iterations"].get<int>();
+    }
     std::string motions;
     if (H5Aexists(job, "motions") > 0) {
       if (!ReadStringAttribute(job, "motions", &motions)) return Fail(path, "/job motions cannot be read");
@@ -464,6 +475,8 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
     ok = ok && job.ok() && WriteStringAttribute(job, "scene", h.scene) && WriteStringAttribute(job, "body", h.body) &&
          WriteStringAttribute(job, "settings", BesoSettingsToJson(h.settings)) &&
          WriteStringAttribute(job, "kgd_version", KGD_VERSION) && WriteStringAttribute(job, "kernels", h.kernels) &&
+         WriteStringAttribute(job, "solver",
+                              nlohmann::json{{"grad_tol", h.grad_tol}, {"max_newton_iterations", h.max_newton_iterations}}.dump()) &&
          (h.motions.empty() || WriteStringAttribute(job, "motions", MotionsToJson(h.motions)));
   }
   {

@@ -76,6 +76,11 @@ struct DesignFileHeader {
   // "x86-64", "native" or "unpinned" (RunningKernels() of the process that ran iteration 0); a file
   // without it reads "x86-64". A resume runs at this level.
   std::string kernels;
+  // The equilibrium solves' settings in force (the scene's, or the job's quality, --grad-tol,
+  // --max-newton-its); 0: not recorded (a file from before they were), the scene's own. A resume solves
+  // with them.
+  double grad_tol = 0;
+  int max_newton_iterations = 0;
 };
 
 struct DesignFile {

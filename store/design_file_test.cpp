@@ -76,6 +76,8 @@ TEST(DesignFile, RoundTripsAHistoryBitForBit) {
   header.cloth_thickness_m = 0.27e-3;
   header.reinforced_thickness_m = 0.5e-3;
   header.kernels = "x86-64-v3";
+  header.grad_tol = 2e-3;
+  header.max_newton_iterations = 50;
   {
     auto w = DesignFileWriter::Create(path, header);
     ASSERT_TRUE(w.ok()) << w.message();
@@ -97,6 +99,8 @@ TEST(DesignFile, RoundTripsAHistoryBitForBit) {
   EXPECT_EQ(d->header.cloth_thickness_m, 0.27e-3);
   EXPECT_EQ(d->header.reinforced_thickness_m, 0.5e-3);
   EXPECT_EQ(d->header.kernels, "x86-64-v3");
+  EXPECT_EQ(d->header.grad_tol, 2e-3);
+  EXPECT_EQ(d->header.max_newton_iterations, 50);
   ASSERT_EQ(d->iterations.size(), f.run.size());
   for (size_t k = 0; k < f.run.size(); ++k) ExpectSame(d->iterations[k], f.run[k]);
 

@@ -99,6 +99,26 @@ TEST_F(DesignCommand, RunsDeterministicallyAndResumesBitForBit) {
   EXPECT_NE(r.output.find("\"scene\":\"pull_test_all_cloth\""), std::string::npos) << r.output;
 }
 
+// A job at another quality (its solves' tolerance) resumes at that quality, not at the scene's.
+TEST_F(DesignCommand, AJobAtDraftQualityResumesAtDraft) {
+  const std::string draft = kJob + " --quality draft";
+  ASSERT_EQ(Kgd(draft + " --iterations 8 --out " + Path("d.h5")).exit_code, 0);
+  ASSERT_EQ(Kgd(kJob + " --iterations 8 --out " + Path("s.h5")).exit_code, 0);
+  ASSERT_EQ(Kgd(draft + " --iterations 3 --out " + Path("e.h5")).exit_code, 0);
+  const CommandRun r = Kgd("design --resume " + Path("e.h5") + " --iterations 8");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Result<DesignFile> d = ReadDesignFile(Path("d.h5")), s = ReadDesignFile(Path("s.h5")), e = ReadDesignFile(Path("e.h5"));
+  ASSERT_TRUE(d.ok() && s.ok() && e.ok());
+  EXPECT_EQ(d->header.grad_tol, 1e-3);
+  ExpectSameDesigns(*d, *e);
+  // The quality matters to this job: at the scene's tolerance it runs otherwise.
+  bool differ = false;
+  for (size_t k = 0; !differ && k < d->iterations.size(); ++k) differ = d->iterations[k].energy_J != s->iterations[k].energy_J;
+  EXPECT_TRUE(differ) << "draft and the scene's tolerance gave the same energies: the test cannot tell a resume at either apart";
+  const CommandRun t = Kgd("designs " + Path("e.h5"));
+  EXPECT_NE(t.output.find("solves to grad_tol 0.001"), std::string::npos) << t.output;
+}
+
 // kgd under the environment of another machine: OpenBLAS told to use another CPU's kernels, glibc's
 // libm without (or with) its FMA variants. `env` is prepended to the command.
 CommandRun KgdOn(const std::string& env, const std::string& args) {
