@@ -105,6 +105,7 @@ nlohmann::ordered_json JobJson(const v1::Job& job) {
   if (job.iterations() > 0) j["last"] = MetricsJson(job.last());
   if (!job.failure().empty()) j["failure"] = job.failure();
   if (!job.worker().empty()) j["worker"] = job.worker();
+  if (!job.kernels().empty()) j["kernels"] = job.kernels();
   if (job.cancel_requested()) j["cancel_requested"] = true;
   if (!job.data_file().empty()) j["data_file"] = job.data_file();
   return j;
@@ -338,6 +339,14 @@ int RunJob(const std::string& server, int64_t id, bool json) {
   std::printf("job %lld: %s, scene %s%s%s\n", static_cast<long long>(job.id()), StateName(job.state()).c_str(), JobSceneName(job.spec()).c_str(),
               job.spec().label().empty() ? "" : ", label ", job.spec().label().c_str());
   std::printf("attempts %d%s%s\n", job.attempts(), job.worker().empty() ? "" : ", worker ", job.worker().c_str());
+  // A queued job with iterations resumes only at their kernel level (server/job_store.h LeaseNext).
+  if (!job.kernels().empty()) {
+    std::string line = "kernels " + job.kernels();
+    if (job.state() == v1::QUEUED && job.iterations() > 0)
+      line += job.kernels() == "unknown" ? ": no worker resumes it (an older worker computed its iterations without saying its kernels)"
+                                         : std::string(": waits for ") + (job.kernels() == "native" ? "a " : "an ") + job.kernels() + " worker";
+    std::printf("%s\n", line.c_str());
+  }
   PrintSummary(job);
   return 0;
 }

@@ -382,8 +382,23 @@ struct JobService::Impl {
     if (it != files.end() && it->second.lease_id == lease_id) files.erase(it);
   }
 
+  // The kernels a start report says its worker runs; "unknown" when it does not say (an older worker).
+  static std::string KernelsOfStart(const v1::JobStart& start) { return start.kernels().empty() ? "unknown" : start.kernels(); }
+
+  // Why job `id` cannot go on with its stored iterations on a worker that runs `start`'s kernels
+  // (another level would change its designs); Ok when it can. LeaseNext leases no such job: this
+  // catches a worker that reports other kernels in its lease than in its start.
+  Status CheckResumeKernels(int64_t id, const v1::JobStart& start) {
+    Result<std::optional<v1::Job>> job = store->GetJob(id);
+    if (!job.ok()) return job.status();
+    if (!*job || (*job)->iterations() == 0 || (*job)->kernels() == KernelsOfStart(start)) return Status::Ok();
+    return Status::Error("job " + std::to_string(id) + "'s iterations were computed with the " + (*job)->kernels() +
+                         " kernels and this worker runs " + KernelsOfStart(start) + ": it resumes on a worker of its level");
+  }
+
   // Opens the job's design file for `lease_id` from the worker's start report: a new file for a new
-  // job, the stored one (cut to the acknowledged iterations) for a resumed one.
+  // job (recording the worker's kernels there and in the job store), the stored one (cut to the
+  // acknowledged iterations) for a resumed one.
   Status OpenJobFile(int64_t job_id, const std::string& lease_id, const v1::JobStart& start) {
     std::lock_guard lock(commit_mu);
     if (!store->LeaseValid(job_id, lease_id)) return Status::Error("the lease on job " + std::to_string(job_id) + " is no longer held");
@@ -396,11 +411,13 @@ struct JobService::Impl {
       DesignFileHeader header;
       header.scene = start.scene();
       header.body = start.body();
+      header.kernels = KernelsOfStart(start);
       Result<BesoSettings> settings = BesoSettingsFromJson(start.settings_json());
       if (!settings.ok()) return Status::Error("bad start report: " + settings.message());
       KGD_RETURN_IF_ERROR(GarmentFromProto(start.garment(), &header).WithContext("bad start report: "));
       header.settings = *settings;
       fs::create_directories(fs::path(path).parent_path());
+      KGD_RETURN_IF_ERROR(store->SetKernels(job_id, lease_id, header.kernels));
       w = DesignFileWriter::Create(path, header);
       store->SetGarmentFaces(job_id, static_cast<int>(header.garment.faces.rows()));
     } else {
@@ -826,7 +843,7 @@ ServiceStatus JobService::LeaseJob(const Caller& caller, const v1::LeaseJobReque
   while (!m.draining && !m.stopping && !cancelled()) {
     {
       std::lock_guard lock(m.commit_mu);
-      Result<std::optional<Lease>> lease = m.store->LeaseNext(req.worker(), Now(), m.options.lease_duration_s);
+      Result<std::optional<Lease>> lease = m.store->LeaseNext(req.worker(), req.kernels(), Now(), m.options.lease_duration_s);
       if (!lease.ok()) return Internal(lease.status());
       if (*lease) {
         const Lease& l = **lease;
@@ -850,7 +867,7 @@ ServiceStatus JobService::LeaseJob(const Caller& caller, const v1::LeaseJobReque
           *out->mutable_last() = RecordToProto(f->iterations[l.iterations - 1]);
         }
         m.Log("job " + std::to_string(l.job_id) + " leased to " + req.worker() + " (attempt " + std::to_string(l.attempt) + ", from iteration " +
-              std::to_string(l.iterations) + ")");
+              std::to_string(l.iterations) + ", kernels " + (req.kernels().empty() ? "unknown" : req.kernels()) + ")");
         m.Notify();
         return ServiceStatus::Ok();
       }
@@ -889,8 +906,9 @@ ServiceStatus JobService::RunJob(const Caller& caller, const std::function<bool(
       if (!m.store->Renew(job_id, lease_id, Now(), m.options.lease_duration_s))
         refused = "the lease on job " + std::to_string(job_id) + " is no longer held";
     } else if (msg.has_start()) {
-      Status st = started ? Status::Error("a second start report") : m.OpenJobFile(job_id, lease_id, msg.start());
-      if (!st.ok()) {
+      if (Status st = started ? Status::Ok() : m.CheckResumeKernels(job_id, msg.start()); !st.ok()) {
+        refused = st.message();  // the job is queued again, for a worker of its level
+      } else if (st = started ? Status::Error("a second start report") : m.OpenJobFile(job_id, lease_id, msg.start()); !st.ok()) {
         refused = st.message();
         end = v1::FAILED;  // a worker that cannot describe its garment, or a file that cannot be written
       }

@@ -14,7 +14,8 @@
 //
 // Leases: a worker holds a job while its RunJob stream is open and its heartbeats arrive within
 // lease_duration_s; a lost worker's job is queued again (and resumes from its last acknowledged
-// iteration) until it has had max_attempts attempts.
+// iteration, on a worker of the kernel level its iterations were computed at: Job.kernels) until it
+// has had max_attempts attempts.
 //
 // Thread-safe: every call may come from any thread; WatchJob, LeaseJob and RunJob block (each polls
 // its `cancelled` callback and returns when the service stops).
@@ -140,8 +141,9 @@ class JobService {
 
   // -- For workers ---------------------------------------------------------------------------------
   // Callers with the `worker` or `admin` role; a `user` gets PERMISSION_DENIED.
-  // Leases the oldest queued job, waiting up to request.wait_s() for one (response.leased() false when
-  // none came, or the service drains or stops). A request's speed is taken as the workers' machine
+  // Leases the oldest queued job the worker may run (a new one, or one whose stored iterations were
+  // computed with the kernels of request.kernels(): JobStore::LeaseNext), waiting up to
+  // request.wait_s() for one (response.leased() false when none came, or the service drains or stops). A request's speed is taken as the workers' machine
   // factor while no job has finished here.
   ServiceStatus LeaseJob(const Caller& caller, const v1::LeaseJobRequest& request, v1::LeaseJobResponse* response, const std::function<bool()>& cancelled);
   // One worker's RunJob stream on a leased job: `read` gives the worker's messages (false: the stream

@@ -88,7 +88,11 @@ BesoIteration Iteration(int k) {
   return it;
 }
 
-v1::WorkerMessage Start(const std::string& lease) {
+// The kernel levels workers report (core/util/pinned_kernels.h); the fake workers run the first unless
+// a test says otherwise.
+const std::string kV3 = "x86-64-v3", kV1 = "x86-64";
+
+v1::WorkerMessage Start(const std::string& lease, const std::string& kernels = kV3) {
   v1::WorkerMessage m;
   m.set_lease_id(lease);
   v1::JobStart* s = m.mutable_start();
@@ -96,6 +100,7 @@ v1::WorkerMessage Start(const std::string& lease) {
   *s->mutable_garment() = GarmentToProto(h);
   s->set_scene(h.scene);
   s->set_settings_json(BesoSettingsToJson(h.settings));
+  s->set_kernels(kernels);
   return m;
 }
 v1::WorkerMessage Report(const std::string& lease, int k) {
@@ -108,6 +113,12 @@ v1::WorkerMessage Complete(const std::string& lease) {
   v1::WorkerMessage m;
   m.set_lease_id(lease);
   m.set_complete(true);
+  return m;
+}
+v1::WorkerMessage Release(const std::string& lease) {
+  v1::WorkerMessage m;
+  m.set_lease_id(lease);
+  m.set_release(true);
   return m;
 }
 
@@ -170,10 +181,12 @@ class FakeStream {
   std::thread thread_;
 };
 
-v1::LeaseJobResponse Lease(JobService& s, const std::string& worker = "w") {
+// A lease for `worker` running `kernels`, waiting up to wait_s for a job it may run.
+v1::LeaseJobResponse Lease(JobService& s, const std::string& worker = "w", const std::string& kernels = kV3, double wait_s = 5) {
   v1::LeaseJobRequest r;
   r.set_worker(worker);
-  r.set_wait_s(5);
+  r.set_kernels(kernels);
+  r.set_wait_s(wait_s);
   v1::LeaseJobResponse out;
   EXPECT_TRUE(s.LeaseJob(kWorker, r, &out, [] { return false; }).ok());
   return out;
@@ -238,6 +251,68 @@ TEST(JobService, ASilentWorkersLeaseExpiresAndTheNextResumesFromTheLastAcknowled
   a.WaitEnded();
   EXPECT_EQ(Job(*s, job.id()).iterations(), 2);
   EXPECT_EQ(Job(*s, job.id()).state(), v1::RUNNING);
+}
+
+// A job whose iterations ran at one kernel level resumes only on a worker of that level (another would
+// change its designs): released, it waits while an x86-64 worker asks (which takes a new job meanwhile),
+// and goes to the next x86-64-v3 worker; a worker that starts it reporting another level is refused and
+// the job queued again. Each job's level is its first worker's, in the job and its design file.
+TEST(JobService, AJobResumesOnlyOnAWorkerOfTheKernelLevelItsIterationsRanAt) {
+  auto s = Open(Options(FreshDir("kernels")));
+  ASSERT_TRUE(s);
+  v1::Job started, fresh;
+  ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(), &started).ok());
+  EXPECT_EQ(Job(*s, started.id()).kernels(), "") << "no worker has started it";
+  const v1::LeaseJobResponse first = Lease(*s, "v3", kV3);
+  ASSERT_TRUE(first.leased());
+  {
+    FakeStream a(*s);
+    EXPECT_EQ(a.Send(Start(first.lease_id(), kV3)).error(), "");
+    for (int k = 0; k < 2; ++k) EXPECT_EQ(a.Send(Report(first.lease_id(), k)).acknowledged_iterations(), k + 1);
+    a.Send(Release(first.lease_id()));
+    a.WaitEnded();
+  }
+  ASSERT_EQ(Job(*s, started.id()).state(), v1::QUEUED);
+  EXPECT_EQ(Job(*s, started.id()).kernels(), kV3);
+  Result<DesignFile> file = ReadDesignFile(Job(*s, started.id()).data_file(), {.arrays = false});
+  ASSERT_TRUE(file.ok()) << file.message();
+  EXPECT_EQ(file->header.kernels, kV3);
+
+  EXPECT_FALSE(Lease(*s, "v1", kV1, 0).leased()) << "its iterations ran at x86-64-v3";
+  EXPECT_FALSE(Lease(*s, "old", "", 0).leased()) << "a worker that does not say its level";
+  ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(), &fresh).ok());
+  const v1::LeaseJobResponse other = Lease(*s, "v1", kV1, 0);
+  ASSERT_TRUE(other.leased());
+  EXPECT_EQ(other.job_id(), fresh.id()) << "a new job goes to any level, past the older one waiting";
+  {
+    FakeStream b(*s);
+    EXPECT_EQ(b.Send(Start(other.lease_id(), kV1)).error(), "");
+    EXPECT_EQ(Job(*s, fresh.id()).kernels(), kV1);
+  }  // the stream breaks before an iteration: the new job is queued again
+  Result<DesignFile> fresh_file = ReadDesignFile(Job(*s, fresh.id()).data_file(), {.arrays = false});
+  ASSERT_TRUE(fresh_file.ok()) << fresh_file.message();
+  EXPECT_EQ(fresh_file->header.kernels, kV1);
+  EXPECT_EQ(Job(*s, started.id()).state(), v1::QUEUED) << "still waiting";
+
+  // A worker that leases as x86-64-v3 but starts as x86-64 is refused; the job waits again.
+  const v1::LeaseJobResponse liar = Lease(*s, "v3", kV3, 0);
+  ASSERT_TRUE(liar.leased());
+  ASSERT_EQ(liar.job_id(), started.id());
+  {
+    FakeStream c(*s);
+    const v1::ServerMessage refused = c.Send(Start(liar.lease_id(), kV1));
+    EXPECT_NE(refused.error().find("x86-64-v3 kernels and this worker runs x86-64"), std::string::npos) << refused.error();
+  }  // (a stream the service did not end, the fake worker closes)
+  EXPECT_EQ(Job(*s, started.id()).state(), v1::QUEUED);
+  EXPECT_EQ(Job(*s, started.id()).kernels(), kV3);
+
+  const v1::LeaseJobResponse second = Lease(*s, "v3", kV3, 0);
+  ASSERT_TRUE(second.leased());
+  EXPECT_EQ(second.job_id(), started.id());
+  ASSERT_EQ(second.history_size(), 2);
+  FakeStream d(*s);
+  EXPECT_EQ(d.Send(Start(second.lease_id(), kV3)).acknowledged_iterations(), 2);
+  EXPECT_EQ(d.Send(Report(second.lease_id(), 2)).acknowledged_iterations(), 3);
 }
 
 // A job made from an uploaded scene is listed, fetched and watched without its files' contents (megabytes

@@ -93,6 +93,11 @@ CREATE TABLE iteration_motions (
 ALTER TABLE jobs ADD COLUMN ended TEXT NOT NULL DEFAULT '';    -- how the design loop ended (Job.ended)
 ALTER TABLE jobs ADD COLUMN cleaned BLOB NOT NULL DEFAULT '';  -- kgd.v1.CleanedDesign, serialized; empty: none
 )sql",
+    // Iterations stored before the level was recorded ran the one pin kgd had then: x86-64.
+    R"sql(
+ALTER TABLE jobs ADD COLUMN kernels TEXT NOT NULL DEFAULT '';  -- Job.kernels: the level its iterations are computed at
+UPDATE jobs SET kernels = 'x86-64' WHERE iterations > 0;
+)sql",
 };
 constexpr int kNumMigrations = sizeof(kMigrations) / sizeof(kMigrations[0]);
 static_assert(kNumMigrations == kSchemaVersion);
@@ -188,7 +193,8 @@ void ReadField(const Stmt& s, int c, google::protobuf::Message* m, const FieldDe
 Status SqlError(const std::string& what, const std::string& error) { return Status::Error("job store: " + what + ": " + error); }
 
 const char kJobColumns[] =
-    "id, spec, state, create_time_s, update_time_s, attempts, iterations, failure, lease_worker, cancel_requested, garment_faces, owner, ended";
+    "id, spec, state, create_time_s, update_time_s, attempts, iterations, failure, lease_worker, cancel_requested, garment_faces, owner, ended, "
+    "kernels";
 
 }  // namespace
 
@@ -282,6 +288,7 @@ Result<v1::Job> JobStore::ReadJob(sqlite3_stmt* row) {
   job.set_garment_faces(sqlite3_column_int(row, 10));
   job.set_owner(col_text(11));
   job.set_ended(col_text(12));
+  job.set_kernels(col_text(13));
   if (job.state() == v1::RUNNING) job.set_phase(job.ended().empty() ? v1::DESIGNING : v1::EVALUATING);
   if (job.iterations() > 0) {
     Result<std::vector<v1::IterationMetrics>> last = Metrics(job.id(), job.iterations() - 1, job.iterations());
@@ -349,11 +356,15 @@ std::map<v1::JobState, int64_t> JobStore::CountByState() {
   return out;
 }
 
-Result<std::optional<Lease>> JobStore::LeaseNext(const std::string& worker, double now, double duration_s) {
+Result<std::optional<Lease>> JobStore::LeaseNext(const std::string& worker, const std::string& kernels, double now, double duration_s) {
   std::lock_guard lock(mu_);
   if (Status st = Exec("BEGIN IMMEDIATE"); !st.ok()) return st;
-  Stmt pick(db_, "SELECT id, spec, attempts, iterations FROM jobs WHERE state = ? ORDER BY id LIMIT 1");
-  pick.Bind(1, static_cast<int>(v1::QUEUED));
+  // A job without iterations starts afresh anywhere; one with iterations resumes at its level only,
+  // and never on a worker that does not say its level.
+  Stmt pick(db_,
+            "SELECT id, spec, attempts, iterations FROM jobs WHERE state = ? AND (iterations = 0 OR (kernels = ? AND kernels != '')) "
+            "ORDER BY id LIMIT 1");
+  pick.Bind(1, static_cast<int>(v1::QUEUED)).Bind(2, kernels);
   const int rc = pick.Step();
   if (rc != SQLITE_ROW) {
     Exec("ROLLBACK");
@@ -574,6 +585,15 @@ Status JobStore::SetEnded(int64_t job_id, const std::string& lease_id, const std
   Stmt s(db_, "UPDATE jobs SET ended = ? WHERE id = ? AND lease_id = ? AND state = ?");
   s.Bind(1, ended).Bind(2, job_id).Bind(3, lease_id).Bind(4, static_cast<int>(v1::RUNNING));
   if (!s.Run()) return SqlError("job end", s.error());
+  if (sqlite3_changes(db_) == 0) return Status::Error("the lease on job " + std::to_string(job_id) + " is no longer held");
+  return Status::Ok();
+}
+
+Status JobStore::SetKernels(int64_t job_id, const std::string& lease_id, const std::string& kernels) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, "UPDATE jobs SET kernels = ? WHERE id = ? AND lease_id = ? AND state = ?");
+  s.Bind(1, kernels).Bind(2, job_id).Bind(3, lease_id).Bind(4, static_cast<int>(v1::RUNNING));
+  if (!s.Run()) return SqlError("kernels", s.error());
   if (sqlite3_changes(db_) == 0) return Status::Error("the lease on job " + std::to_string(job_id) + " is no longer held");
   return Status::Ok();
 }

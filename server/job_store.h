@@ -3,7 +3,8 @@
 // Tables (schema version in PRAGMA user_version; Open migrates older databases and refuses newer):
 //   jobs        one row per job: spec (kgd.v1.JobSpec), state, attempts, the lease (id, worker,
 //               expiry), the number of stored iterations, failure reason, cancel request, how the
-//               design loop ended (Job.ended) and the worker's cleaned final design (kgd.v1.CleanedDesign)
+//               design loop ended (Job.ended), the worker's cleaned final design (kgd.v1.CleanedDesign)
+//               and the kernels its iterations are computed with (Job.kernels)
 //   iterations  one row per (job, iteration): every IterationMetrics field as a column of the same
 //               name, and the design (one byte per face)
 //   iteration_motions  one row per (job, iteration, motion): every MotionMetrics field as a column of
@@ -29,7 +30,7 @@
 
 namespace kgd::server {
 
-inline constexpr int kSchemaVersion = 5;
+inline constexpr int kSchemaVersion = 6;
 
 struct Lease {
   std::string lease_id;
@@ -68,8 +69,11 @@ class JobStore {
   // Jobs in each state (states without jobs are absent).
   std::map<v1::JobState, int64_t> CountByState();
 
-  // Leases the oldest queued job to `worker` until now + duration; nullopt when none is queued.
-  Result<std::optional<Lease>> LeaseNext(const std::string& worker, double now, double duration_s);
+  // Leases to `worker`, which runs `kernels` (core/util/pinned_kernels.h RunningKernels), the oldest
+  // queued job it may run, until now + duration: one without stored iterations, or one whose
+  // iterations were computed with the same kernels (never, for a worker with empty `kernels`: it
+  // does not say its own). nullopt when there is none: a job of another level waits in the queue.
+  Result<std::optional<Lease>> LeaseNext(const std::string& worker, const std::string& kernels, double now, double duration_s);
   // True while `lease_id` holds `job_id` (RUNNING, not expired); extends it to now + duration.
   bool Renew(int64_t job_id, const std::string& lease_id, double now, double duration_s);
   bool LeaseValid(int64_t job_id, const std::string& lease_id);
@@ -102,6 +106,8 @@ class JobStore {
   Status SetGarmentFaces(int64_t job_id, int faces);
   // How the design loop of a job held by `lease_id` ended (Job.ended; its phase is then EVALUATING).
   Status SetEnded(int64_t job_id, const std::string& lease_id, const std::string& ended);
+  // The kernels the worker holding `lease_id` computes the job's iterations with (Job.kernels).
+  Status SetKernels(int64_t job_id, const std::string& lease_id, const std::string& kernels);
   // The worker's cleaned final design of a job held by `lease_id`, and the one stored (nullopt: none).
   Status SetCleaned(int64_t job_id, const std::string& lease_id, const v1::CleanedDesign& cleaned);
   Result<std::optional<v1::CleanedDesign>> Cleaned(int64_t job_id);

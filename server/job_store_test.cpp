@@ -1,10 +1,12 @@
 // The job store: schema versions, the lease life cycle (lease, renew, expire, retry limit), cancel,
-// and iterations that are stored in order, once, by the lease holder only, with their motions.
+// iterations that are stored in order, once, by the lease holder only, with their motions, and jobs
+// that resume only on workers of the kernel level their iterations ran at.
 #include "server/job_store.h"
 
 #include <google/protobuf/util/message_differencer.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -16,6 +18,8 @@ std::string FreshPath(const std::string& name) {
   for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(p.string() + suffix);
   return p.string();
 }
+
+const std::string kV3 = "x86-64-v3", kV1 = "x86-64";
 
 v1::JobSpec Spec() {
   v1::JobSpec s;
@@ -60,7 +64,7 @@ TEST(JobStore, AVersion2DatabaseGainsTheSolveProfileColumns) {
   {
     auto store = std::move(JobStore::Open(path)).value();
     job = *store->CreateJob(Spec(), 3, 100.0);
-    lease = (**store->LeaseNext("w1", 101.0, 1000.0)).lease_id;
+    lease = (**store->LeaseNext("w1", kV3, 101.0, 1000.0)).lease_id;
     ASSERT_TRUE(store->AppendIteration(job, lease, Metrics(0), std::string(3, '\1')).ok());
   }
   {
@@ -69,7 +73,7 @@ TEST(JobStore, AVersion2DatabaseGainsTheSolveProfileColumns) {
     for (const char* c : {"assembly_s", "factorization_s", "linear_solve_s", "line_search_s", "body_field_query_s", "membrane_s",
                           "fold_barrier_s", "attachment_s", "contact_s", "friction_s", "bending_s"})
       ASSERT_EQ(sqlite3_exec(db, (std::string("ALTER TABLE iterations DROP COLUMN ") + c).c_str(), nullptr, nullptr, nullptr), SQLITE_OK) << c;
-    ASSERT_EQ(sqlite3_exec(db, "DROP TABLE iteration_motions; ALTER TABLE jobs DROP COLUMN ended; ALTER TABLE jobs DROP COLUMN cleaned; PRAGMA user_version=2",
+    ASSERT_EQ(sqlite3_exec(db, "DROP TABLE iteration_motions; ALTER TABLE jobs DROP COLUMN ended; ALTER TABLE jobs DROP COLUMN cleaned; ALTER TABLE jobs DROP COLUMN kernels; PRAGMA user_version=2",
                            nullptr, nullptr, nullptr),
               SQLITE_OK);
     sqlite3_close(db);
@@ -120,13 +124,13 @@ TEST(JobStore, EveryIterationsMotionsRoundTripAndAVersion3DatabaseGainsTheirTabl
   {
     auto store = std::move(JobStore::Open(path)).value();
     job = *store->CreateJob(Spec(), 3, 100.0);
-    lease = (**store->LeaseNext("w1", 101.0, 1000.0)).lease_id;
+    lease = (**store->LeaseNext("w1", kV3, 101.0, 1000.0)).lease_id;
     ASSERT_TRUE(store->AppendIteration(job, lease, Metrics(0), std::string(3, '\1')).ok());
   }
   {
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(db, "DROP TABLE iteration_motions; ALTER TABLE jobs DROP COLUMN ended; ALTER TABLE jobs DROP COLUMN cleaned; PRAGMA user_version=3",
+    ASSERT_EQ(sqlite3_exec(db, "DROP TABLE iteration_motions; ALTER TABLE jobs DROP COLUMN ended; ALTER TABLE jobs DROP COLUMN cleaned; ALTER TABLE jobs DROP COLUMN kernels; PRAGMA user_version=3",
                            nullptr, nullptr, nullptr),
               SQLITE_OK);
     sqlite3_close(db);
@@ -169,7 +173,7 @@ TEST(JobStore, TheEndAndTheCleanedDesignRoundTripForTheHolderAndAVersion4Databas
     job = *store->CreateJob(Spec(), 3, 100.0);
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(db, "ALTER TABLE jobs DROP COLUMN ended; ALTER TABLE jobs DROP COLUMN cleaned; PRAGMA user_version=4", nullptr, nullptr, nullptr),
+    ASSERT_EQ(sqlite3_exec(db, "ALTER TABLE jobs DROP COLUMN ended; ALTER TABLE jobs DROP COLUMN cleaned; ALTER TABLE jobs DROP COLUMN kernels; PRAGMA user_version=4", nullptr, nullptr, nullptr),
               SQLITE_OK);
     sqlite3_close(db);
   }
@@ -179,7 +183,7 @@ TEST(JobStore, TheEndAndTheCleanedDesignRoundTripForTheHolderAndAVersion4Databas
   EXPECT_EQ((**store->GetJob(job)).ended(), "");
   EXPECT_EQ((**store->GetJob(job)).phase(), v1::JOB_PHASE_UNSPECIFIED) << "a queued job has no phase";
   EXPECT_FALSE(*store->Cleaned(job));
-  const std::string lease = (**store->LeaseNext("w1", 101.0, 1000.0)).lease_id;
+  const std::string lease = (**store->LeaseNext("w1", kV3, 101.0, 1000.0)).lease_id;
   EXPECT_EQ((**store->GetJob(job)).phase(), v1::DESIGNING);
   EXPECT_FALSE(store->Progress(job)->ended);
   const std::string ended = "stopped at the iteration limit (5) at 92.7 % of the garment, above the budget of 10 %";
@@ -210,13 +214,14 @@ TEST(JobStore, TheEndAndTheCleanedDesignRoundTripForTheHolderAndAVersion4Databas
 TEST(JobStore, LeasesRenewsAndStoresIterationsInOrderForTheHolderOnly) {
   auto store = std::move(JobStore::Open(FreshPath("lease"))).value();
   const int64_t a = *store->CreateJob(Spec(), 3, 100.0), b = *store->CreateJob(Spec(), 3, 101.0);
-  Result<std::optional<Lease>> la = store->LeaseNext("w1", 102.0, 10.0);
+  Result<std::optional<Lease>> la = store->LeaseNext("w1", kV3, 102.0, 10.0);
   ASSERT_TRUE(la.ok() && *la);
   EXPECT_EQ((*la)->job_id, a);  // oldest first
   EXPECT_EQ((*la)->attempt, 1);
   EXPECT_EQ((**store->GetJob(a)).state(), v1::RUNNING);
   EXPECT_EQ((**store->GetJob(a)).worker(), "w1");
   const std::string lease = (*la)->lease_id;
+  ASSERT_TRUE(store->SetKernels(a, lease, kV3).ok());
 
   EXPECT_TRUE(store->AppendIteration(a, lease, Metrics(0), std::string(5, '\1')).ok());
   EXPECT_FALSE(store->AppendIteration(a, lease, Metrics(0), std::string(5, '\1')).ok());  // no duplicate
@@ -238,20 +243,98 @@ TEST(JobStore, LeasesRenewsAndStoresIterationsInOrderForTheHolderOnly) {
   EXPECT_EQ(store->ExpireLeases(121.0), std::vector<int64_t>{a});
   EXPECT_EQ((**store->GetJob(a)).state(), v1::QUEUED);
   EXPECT_FALSE(store->AppendIteration(a, lease, Metrics(2), "x").ok());  // the old holder is out
-  Result<std::optional<Lease>> again = store->LeaseNext("w2", 122.0, 10.0);
+  Result<std::optional<Lease>> again = store->LeaseNext("w2", kV3, 122.0, 10.0);
   EXPECT_EQ((*again)->job_id, a);
   EXPECT_EQ((*again)->attempt, 2);
   EXPECT_EQ((*again)->iterations, 2);
   EXPECT_EQ(*store->EndLease(a, (*again)->lease_id, v1::SUCCEEDED, "", 130.0), v1::SUCCEEDED);
-  EXPECT_EQ((*store->LeaseNext("w2", 131.0, 10.0))->job_id, b);
+  EXPECT_EQ((*store->LeaseNext("w2", kV3, 131.0, 10.0))->job_id, b);
   EXPECT_EQ(store->IntegrityCheck(), "ok");
+}
+
+// A job's stored iterations resume only at the kernel level they ran at (designs differ between
+// levels): released or expired, it is not leased to a worker of another level nor to one that does not
+// say its level, which take newer jobs instead; a started job without iterations goes to any. The level
+// is set by the lease holder only.
+TEST(JobStore, AJobWithIterationsIsLeasedOnlyToAWorkerOfItsKernels) {
+  auto store = std::move(JobStore::Open(FreshPath("kernels"))).value();
+  const int64_t a = *store->CreateJob(Spec(), 5, 100.0), b = *store->CreateJob(Spec(), 5, 101.0);
+  const Lease la = **store->LeaseNext("v3", kV3, 102.0, 10.0);
+  ASSERT_EQ(la.job_id, a);
+  EXPECT_FALSE(store->SetKernels(a, "another lease", kV1).ok());
+  ASSERT_TRUE(store->SetKernels(a, la.lease_id, kV3).ok());
+  ASSERT_TRUE(store->AppendIteration(a, la.lease_id, Metrics(0), std::string(3, '\1')).ok());
+  EXPECT_EQ((**store->GetJob(a)).kernels(), kV3);
+  ASSERT_EQ(*store->EndLease(a, la.lease_id, v1::QUEUED, "", 103.0), v1::QUEUED);  // released (a drain)
+
+  const Lease lb = **store->LeaseNext("v1", kV1, 104.0, 10.0);
+  EXPECT_EQ(lb.job_id, b) << "a new job goes to any level, past the older one waiting";
+  ASSERT_TRUE(store->SetKernels(b, lb.lease_id, kV1).ok());
+  EXPECT_FALSE(*store->LeaseNext("v1", kV1, 105.0, 10.0)) << "job a's iteration ran at x86-64-v3";
+  EXPECT_FALSE(*store->LeaseNext("old", "", 105.0, 10.0)) << "a worker that does not say its level resumes nothing";
+  EXPECT_EQ((**store->GetJob(a)).state(), v1::QUEUED);
+  const Lease again = **store->LeaseNext("v3", kV3, 106.0, 10.0);
+  EXPECT_EQ(again.job_id, a);
+  EXPECT_EQ(again.iterations, 1);
+
+  // Both leases expire: a waits again for x86-64-v3; b, started without an iteration, goes to any.
+  auto expired = [&](double now) {
+    std::vector<int64_t> ids = store->ExpireLeases(now);
+    std::sort(ids.begin(), ids.end());
+    return ids;
+  };
+  EXPECT_EQ(expired(200.0), (std::vector<int64_t>{a, b}));
+  const Lease lb2 = **store->LeaseNext("v3", kV3, 201.0, 10.0);
+  EXPECT_EQ(lb2.job_id, a) << "the oldest it may run";
+  const Lease lb3 = **store->LeaseNext("v3", kV3, 201.0, 10.0);
+  EXPECT_EQ(lb3.job_id, b) << "job b stored no iteration at x86-64";
+  EXPECT_EQ(expired(300.0), (std::vector<int64_t>{a, b}));
+  EXPECT_EQ((**store->LeaseNext("v1", kV1, 301.0, 10.0)).job_id, b);
+  EXPECT_FALSE(*store->LeaseNext("v1", kV1, 301.0, 10.0));
+  const int64_t c = *store->CreateJob(Spec(), 5, 302.0);
+  EXPECT_EQ((**store->LeaseNext("old", "", 303.0, 10.0)).job_id, c) << "a new job goes to a worker that does not say its level";
+  EXPECT_EQ((**store->LeaseNext("v3", kV3, 304.0, 10.0)).job_id, a);
+  // Iterations of no recorded level resume nowhere, not even on a worker that does not say its own.
+  const int64_t d = *store->CreateJob(Spec(), 5, 305.0);
+  const Lease ld = **store->LeaseNext("old", "", 306.0, 10.0);
+  ASSERT_EQ(ld.job_id, d);
+  ASSERT_TRUE(store->AppendIteration(d, ld.lease_id, Metrics(0), std::string(3, '\1')).ok());
+  ASSERT_EQ(*store->EndLease(d, ld.lease_id, v1::QUEUED, "", 307.0), v1::QUEUED);
+  EXPECT_FALSE(*store->LeaseNext("old", "", 308.0, 10.0));
+}
+
+// A version-5 database (no kernels column) migrates: a job that stored iterations then ran them at the
+// one level kgd pinned then, x86-64, and resumes only there; one without iterations has no level.
+TEST(JobStore, AVersion5DatabasesStartedJobsReadX8664) {
+  const std::string path = FreshPath("v5");
+  int64_t started = 0, queued = 0;
+  {
+    auto store = std::move(JobStore::Open(path)).value();
+    started = *store->CreateJob(Spec(), 3, 100.0);
+    queued = *store->CreateJob(Spec(), 3, 100.5);
+    const Lease l = **store->LeaseNext("w1", kV3, 101.0, 1000.0);
+    ASSERT_TRUE(store->AppendIteration(started, l.lease_id, Metrics(0), std::string(3, '\1')).ok());
+    ASSERT_TRUE(store->EndLease(started, l.lease_id, v1::QUEUED, "", 102.0).ok());
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "ALTER TABLE jobs DROP COLUMN kernels; PRAGMA user_version=5", nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(db);
+  }
+  Result<std::unique_ptr<JobStore>> opened = JobStore::Open(path);
+  ASSERT_TRUE(opened.ok()) << opened.message();
+  auto store = std::move(opened).value();
+  EXPECT_EQ((**store->GetJob(started)).kernels(), kV1);
+  EXPECT_EQ((**store->GetJob(queued)).kernels(), "");
+  EXPECT_EQ((**store->LeaseNext("v3", kV3, 103.0, 10.0)).job_id, queued);
+  EXPECT_FALSE(*store->LeaseNext("v3", kV3, 103.0, 10.0));
+  EXPECT_EQ((**store->LeaseNext("v1", kV1, 104.0, 10.0)).job_id, started);
 }
 
 TEST(JobStore, GivesUpAfterMaxAttemptsAndCancelsQueuedAndRunningJobs) {
   auto store = std::move(JobStore::Open(FreshPath("attempts"))).value();
   const int64_t a = *store->CreateJob(Spec(), 2, 0.0);
   for (int attempt = 1; attempt <= 2; ++attempt) {
-    Result<std::optional<Lease>> l = store->LeaseNext("w", 10.0 * attempt, 1.0);
+    Result<std::optional<Lease>> l = store->LeaseNext("w", kV3, 10.0 * attempt, 1.0);
     ASSERT_TRUE(*l);
     store->ExpireLeases(10.0 * attempt + 2);
   }
@@ -262,7 +345,7 @@ TEST(JobStore, GivesUpAfterMaxAttemptsAndCancelsQueuedAndRunningJobs) {
   const int64_t queued = *store->CreateJob(Spec(), 2, 0.0);
   EXPECT_EQ((**store->Cancel(queued, 1.0)).state(), v1::CANCELLED);
   const int64_t running = *store->CreateJob(Spec(), 2, 0.0);
-  Result<std::optional<Lease>> l = store->LeaseNext("w", 1.0, 100.0);
+  Result<std::optional<Lease>> l = store->LeaseNext("w", kV3, 1.0, 100.0);
   ASSERT_EQ((*l)->job_id, running);
   const v1::Job asked = **store->Cancel(running, 2.0);
   EXPECT_EQ(asked.state(), v1::RUNNING);  // until the worker stops

@@ -12,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "core/util/pinned_kernels.h"
 #include "job/design_job.h"
 #include "job/fabrication_export.h"
 #include "kgd/v1/kgd.grpc.pb.h"
@@ -92,6 +93,7 @@ struct DesignWorker::Impl {
       v1::LeaseJobRequest req;
       req.set_worker(name);
       req.set_wait_s(2);
+      req.set_kernels(RunningKernels());  // jobs whose iterations ran at another level are not ours to resume
       if (speed && !speed_sent) *req.mutable_speed() = *speed;
       v1::LeaseJobResponse lease;
       grpc::ClientContext ctx;
@@ -187,6 +189,7 @@ struct DesignWorker::Impl {
       start.mutable_start()->set_scene(job->header.scene);
       start.mutable_start()->set_body(job->header.body);
       start.mutable_start()->set_settings_json(BesoSettingsToJson(job->settings()));
+      start.mutable_start()->set_kernels(RunningKernels());
       if (!send(start)) lost = true;
       auto keep_going = [&] { return !(cancel || drain || lost || stop); };
       // Iteration 0 and the last, for the evaluation after the loop (a resumed job's come from its history).
