@@ -91,7 +91,7 @@ int RunDesign(const DesignOptions& o) {
   const bool resume = !o.resume.empty();
   const v1::OptimizerSettings optimizer = ToProto(o.optimizer);
   if (resume && (AnyDesignFlagGiven(o.optimizer) || !o.body.empty() || !o.out.empty()))
-    return Fail("design", "--resume continues the stored job with its own settings; only --iterations may be given with it");
+    return Fail("design", "--resume continues the stored job with its own settings (its solves' quality too); only --iterations may be given with it");
   if (!resume && o.scene.empty()) return Fail("design", "give a scene (a built-in name or a scene file), or --resume FILE");
   if (resume && !o.scene.empty()) return Fail("design", "give either a scene or --resume FILE, not both");
 

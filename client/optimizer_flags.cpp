@@ -101,7 +101,7 @@ bool AnyDesignFlagGiven(const OptimizerFlags& o) {
 #define KGD_SWITCH_GIVEN(name, default_value, flag, proto_field, help) any |= o.name;
   KGD_BESO_SWITCHES(KGD_SWITCH_GIVEN)
 #undef KGD_SWITCH_GIVEN
-  return any || !o.motion_weights.empty();
+  return any || !o.motion_weights.empty() || Given(o.max_newton) || Given(o.grad_tol) || !o.quality.empty();
 }
 
 }  // namespace kgd::cli

@@ -33,8 +33,8 @@ struct OptimizerFlags {
 
 void AddOptimizerFlags(CLI::App* command, OptimizerFlags* flags);
 v1::OptimizerSettings ToProto(const OptimizerFlags& flags);
-// True when any BESO flag other than --iterations, or a motion weight, was given (the solver flags do
-// not count).
+// True when any BESO flag other than --iterations, a motion weight or a solver flag (--quality,
+// --grad-tol, --max-newton) was given.
 bool AnyDesignFlagGiven(const OptimizerFlags& flags);
 
 }  // namespace kgd::cli

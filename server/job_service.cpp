@@ -1,6 +1,7 @@
 #include "server/job_service.h"
 
 #include <algorithm>
+#include <cmath>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -412,6 +413,8 @@ struct JobService::Impl {
       header.scene = start.scene();
       header.body = start.body();
       header.kernels = KernelsOfStart(start);
+      header.grad_tol = std::isfinite(start.grad_tol()) ? std::max(0.0, start.grad_tol()) : 0.0;
+      header.max_newton_iterations = std::max(0, start.max_newton_iterations());
       Result<BesoSettings> settings = BesoSettingsFromJson(start.settings_json());
       if (!settings.ok()) return Status::Error("bad start report: " + settings.message());
       KGD_RETURN_IF_ERROR(GarmentFromProto(start.garment(), &header).WithContext("bad start report: "));

@@ -7,7 +7,11 @@
 //   /job                         attrs scene (built-in name or scene-file path), body (measurement
 //                                overrides "name=value ..."), settings (BESO settings, JSON), kgd_version,
 //                                motions (JSON [{"name", "role", "weight"}, ...]: the scene's K motions;
-//                                files before it lack it and read as one motion, the scene's)
+//                                files before it lack it and read as one motion, the scene's),
+//                                kernels (the numeric kernels' level, core/util/pinned_kernels.h; files
+//                                before it lack it and read "x86-64"), solver (JSON {"grad_tol",
+//                                "max_newton_iterations"}: the solves' settings in force, 0 the default;
+//                                files before it lack it and resume at the scene's)
 //   /garment/rest_vertices       (V,3) float64, m
 //   /garment/faces               (F,3) int32, 0-based vertex indices
 //   /garment/rest_area           (F)   float64, m^2
@@ -77,8 +81,8 @@ struct DesignFileHeader {
   // without it reads "x86-64". A resume runs at this level.
   std::string kernels;
   // The equilibrium solves' settings in force (the scene's, or the job's quality, --grad-tol,
-  // --max-newton-its); 0: not recorded (a file from before they were), the scene's own. A resume solves
-  // with them.
+  // --max-newton): grad_tol 0 means not recorded (a file from before it was: the scene's own),
+  // max_newton_iterations 0 the solver's default (200). A resume solves with them.
   double grad_tol = 0;
   int max_newton_iterations = 0;
 };

@@ -117,6 +117,10 @@ TEST_F(DesignCommand, AJobAtDraftQualityResumesAtDraft) {
   EXPECT_TRUE(differ) << "draft and the scene's tolerance gave the same energies: the test cannot tell a resume at either apart";
   const CommandRun t = Kgd("designs " + Path("e.h5"));
   EXPECT_NE(t.output.find("solves to grad_tol 0.001"), std::string::npos) << t.output;
+  // Another quality on a resume is refused, not ignored.
+  const CommandRun q = Kgd("design --resume " + Path("e.h5") + " --iterations 9 --quality standard");
+  EXPECT_EQ(q.exit_code, 2) << q.output;
+  EXPECT_NE(q.output.find("its solves' quality too"), std::string::npos) << q.output;
 }
 
 // kgd under the environment of another machine: OpenBLAS told to use another CPU's kernels, glibc's
@@ -173,6 +177,13 @@ TEST_F(DesignCommand, AJobGivesTheSameDesignsBitForBitOnEveryCpuAndResumedOnAnot
     ExpectSameDesigns(*a, *d);
     full.emplace(level, *a);
   }
+  // A level that is not one stops the program (a lab's typo must not give another level's designs);
+  // KGD_NATIVE_KERNELS=0 keeps the pin.
+  CommandRun bad = KgdOn("KGD_KERNELS=X86-64", "machine");
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("KGD_KERNELS=X86-64 is not a kernel level"), std::string::npos) << bad.output;
+  bad = run("KGD_NATIVE_KERNELS=0", "machine");
+  EXPECT_NE(bad.output.find("kernels " + levels.back()), std::string::npos) << bad.output;
   if (levels.size() < 2) GTEST_SKIP() << "this CPU runs only the x86-64 level";
 
   // The levels are different kernels: the same job rounds differently.

@@ -151,6 +151,11 @@ const DesignFile& LocalRun(int iterations, double budget = 0.15) {
 void ExpectSameAsLocal(const std::string& server_file, const DesignFile& local) {
   Result<DesignFile> f = ReadDesignFile(server_file);
   ASSERT_TRUE(f.ok()) << f.message();
+  // The header records what the iterations ran with, as the local file's does: kernel level and solves.
+  EXPECT_EQ(f->header.kernels, local.header.kernels);
+  EXPECT_GT(f->header.grad_tol, 0.0);
+  EXPECT_EQ(f->header.grad_tol, local.header.grad_tol);
+  EXPECT_EQ(f->header.max_newton_iterations, local.header.max_newton_iterations);
   ASSERT_EQ(f->iterations.size(), local.iterations.size()) << server_file;
   for (size_t k = 0; k < local.iterations.size(); ++k) {
     const BesoIteration &a = f->iterations[k], &b = local.iterations[k];

@@ -190,6 +190,8 @@ struct DesignWorker::Impl {
       start.mutable_start()->set_body(job->header.body);
       start.mutable_start()->set_settings_json(BesoSettingsToJson(job->settings()));
       start.mutable_start()->set_kernels(RunningKernels());
+      start.mutable_start()->set_grad_tol(job->header.grad_tol);
+      start.mutable_start()->set_max_newton_iterations(job->header.max_newton_iterations);
       if (!send(start)) lost = true;
       auto keep_going = [&] { return !(cancel || drain || lost || stop); };
       // Iteration 0 and the last, for the evaluation after the loop (a resumed job's come from its history).

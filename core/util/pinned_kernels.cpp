@@ -63,6 +63,12 @@ bool EnvironmentIs(const KernelPin& pin) {
   return hwcaps == pin.hwcaps;
 }
 
+// KGD_NATIVE_KERNELS is set to something other than "" or "0".
+bool Native() {
+  const std::string v = Env("KGD_NATIVE_KERNELS");
+  return !v.empty() && v != "0";
+}
+
 std::string CpuLevel() {
   __builtin_cpu_init();
   return __builtin_cpu_supports("x86-64-v3") ? kKernelsX8664V3 : kKernelsX8664;
@@ -87,17 +93,19 @@ std::string MachineKernelLevel() {
 }
 
 std::string RunningKernels() {
-  if (std::getenv("KGD_NATIVE_KERNELS")) return kKernelsNative;
+  if (Native()) return kKernelsNative;
   const KernelPin* pin = PinOf(Env(kPinnedMarker));
   return pin && EnvironmentIs(*pin) ? pin->level : "unpinned";
 }
 
 void PinNumericKernels(char** argv) {
   g_argv = argv;
-  if (std::getenv("KGD_NATIVE_KERNELS")) return;
-  const std::string cap = Env("KGD_KERNELS");
-  if (!cap.empty() && Rank(cap) < 0)
-    std::fprintf(stderr, "kgd: warning: KGD_KERNELS=%s is not a kernel level (x86-64 or x86-64-v3); ignored\n", cap.c_str());
+  if (Native()) return;
+  // A lab that caps its machines must not get another level's designs from a typo.
+  if (const std::string cap = Env("KGD_KERNELS"); !cap.empty() && Rank(cap) < 0) {
+    std::fprintf(stderr, "kgd: KGD_KERNELS=%s is not a kernel level: give x86-64 or x86-64-v3, or unset it\n", cap.c_str());
+    std::exit(2);
+  }
   const std::string marker = Env(kPinnedMarker);
   const KernelPin* pinned = PinOf(marker);
   // Already pinned by this program (at start, or to a design file's level), at a level this machine runs.
@@ -120,7 +128,8 @@ Status PinNumericKernelsTo(const std::string& level) {
   if (Rank(level) > Rank(MachineKernelLevel()))
     return Status::Error("it was computed with the " + level + " kernels, which this machine does not run (" +
                          (Env("KGD_KERNELS").empty() ? "its CPU lacks AVX2 or FMA" : "KGD_KERNELS=" + Env("KGD_KERNELS")) +
-                         "): resuming here would change its designs; resume it on an " + level + " machine");
+                         "): resuming here would change its designs; resume it on an " + level + " machine" +
+                         (Env("KGD_KERNELS").empty() ? "" : ", or without KGD_KERNELS"));
   if (!g_argv) return Status::Error("cannot run the " + level + " kernels: the program did not pin its kernels at start");
   return Status::Error("cannot run the " + level + " kernels (exec: " + Exec(*pin, g_argv) + ")");
 }

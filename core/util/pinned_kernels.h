@@ -22,8 +22,10 @@
 //
 // Environment:
 //  - KGD_KERNELS=x86-64: never use a level above it (a lab whose machines differ pins all to x86-64, so
-//    that a job gives the same designs on any of them);
-//  - KGD_NATIVE_KERNELS=1: no pin; the machine's own choice (results differ across machines).
+//    that a job gives the same designs on any of them); another value than a level's name stops the
+//    program (PinNumericKernels);
+//  - KGD_NATIVE_KERNELS=1 (any value but empty or 0): no pin; the machine's own choice (results differ
+//    across machines).
 #pragma once
 
 #include <string>
@@ -47,7 +49,8 @@ std::string RunningKernels();
 // Returns when the environment is pinned (to MachineKernelLevel(), or to the level a PinNumericKernelsTo
 // of this process chose) or KGD_NATIVE_KERNELS is set; otherwise replaces the process with the same
 // program and arguments under the pinned environment. When that fails, prints a warning and returns
-// with the machine's own kernels.
+// with the machine's own kernels. Exits with status 2, naming the value, when KGD_KERNELS is set to
+// something other than a level's name.
 void PinNumericKernels(char** argv);
 
 // Runs the process at `level` (a resume at its design file's level): returns Ok when it already does
