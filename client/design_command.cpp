@@ -70,21 +70,30 @@ void PrintMotions(const BesoIteration& it) {
                 m.reinforced_energy_J, m.density_ratio);
 }
 
-// A resume continues at the kernels its designs were computed with (core/util/pinned_kernels.h): when
-// this process runs another level, the program runs again at the file's (the writer closed first) and
-// this returns only with an error; a file of native or unpinned kernels resumes with a warning.
-Status ResumeAtKernelsOf(const std::string& path, const DesignFileHeader& header, std::unique_ptr<DesignFileWriter>* writer) {
+// A design file's designs repeat, and its scene rebuilds as stored, only at the kernels they were computed
+// with (core/util/pinned_kernels.h). When this process runs another level, the program runs again at the
+// file's (`writer`, when given, closed first) and this returns only with an error, which names the level
+// where the machine cannot run it; a file of native or unpinned kernels goes on with a warning. `doing`
+// says what the command does with the file ("resuming", "evaluating", ...).
+Status RunAtKernelsOf(const std::string& path, const std::string& kernels, const std::string& doing,
+                      std::unique_ptr<DesignFileWriter>* writer = nullptr) {
   const std::string running = RunningKernels();
-  if (header.kernels == running || running == kKernelsNative) return Status::Ok();
-  if (header.kernels != kKernelsX8664 && header.kernels != kKernelsX8664V3) {
-    std::fprintf(stderr, "kgd design: warning: %s was computed with %s kernels: the resumed designs are this machine's\n", path.c_str(),
-                 header.kernels.c_str());
+  if (kernels == running || running == kKernelsNative) return Status::Ok();
+  if (kernels != kKernelsX8664 && kernels != kKernelsX8664V3) {
+    std::fprintf(stderr, "kgd: warning: %s was computed with %s kernels: %s it here may differ from the machine it ran on\n", path.c_str(),
+                 kernels.c_str(), doing.c_str());
     return Status::Ok();
   }
-  if (header.kernels == MachineKernelLevel() || header.kernels == kKernelsX8664)
-    std::fprintf(stderr, "kgd design: %s was computed with the %s kernels; resuming with them\n", path.c_str(), header.kernels.c_str());
-  writer->reset();
-  return PinNumericKernelsTo(header.kernels).WithContext(path + ": ");
+  const bool can = kernels == MachineKernelLevel() || kernels == kKernelsX8664;
+  if (can) {
+    std::fprintf(stderr, "kgd: %s was computed with the %s kernels; %s with them\n", path.c_str(), kernels.c_str(), doing.c_str());
+    if (writer) writer->reset();
+  }
+  const Status s = PinNumericKernelsTo(kernels);
+  if (can || s.ok()) return s.WithContext(path + ": ");
+  return Status::Error(path + ": computed with the " + kernels + " kernels, and " + s.message() + ": " + doing +
+                       " it here would not repeat them; do it on an " + kernels + " machine" +
+                       (std::getenv("KGD_KERNELS") ? ", or without KGD_KERNELS" : ""));
 }
 
 int RunDesign(const DesignOptions& o) {
@@ -108,7 +117,7 @@ int RunDesign(const DesignOptions& o) {
     const int n = writer->num_iterations();
     Result<DesignFile> file = ReadDesignFile(path, {.arrays = true, .only_iteration = n - 1});
     if (!file.ok()) return Fail("design", file.message());
-    if (Status s = ResumeAtKernelsOf(path, file->header, &writer); !s.ok()) return Fail("design", s.message());
+    if (Status s = RunAtKernelsOf(path, file->header.kernels, "resuming", &writer); !s.ok()) return Fail("design", s.message());
     Result<SceneSpec> scene = RebuildSceneOfDesignFile(path, file->header);
     if (!scene.ok()) return Fail("design", scene.message());
     job = ResumeDesignJob(std::move(scene).value(), std::move(file->header), std::move(file->iterations), path,
@@ -330,6 +339,7 @@ Result<StoredDesign> LoadStoredDesign(const std::string& path, int k) {
   if (n == 0) return Status::Error(path + ": no iterations stored yet");
   if (k < 0) k = n - 1;
   if (k >= n) return Status::Error(path + ": iteration " + std::to_string(k) + " is not stored (0.." + std::to_string(n - 1) + ")");
+  KGD_RETURN_IF_ERROR(RunAtKernelsOf(path, metrics->header.kernels, "simulating its designs"));
   Result<DesignFile> f = ReadDesignFile(path, {.arrays = true, .only_iteration = k});
   if (!f.ok()) return f.status();
   Result<SceneSpec> scene = SceneOfDesignFile(path, f->header);
@@ -589,7 +599,10 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
     // A design file, or a scene (file or built-in name) with its own design.
     Result<ExportReport> r = Status::Error("");
     if (std::filesystem::path(ex->file).extension() == ".h5") {
-      r = ExportDesign(ex->file, ex->out, o);
+      // The export simulates the cleaned design on the file's scene.
+      Result<DesignFile> header = ReadDesignFile(ex->file, {.arrays = false});
+      const Status at = header.ok() ? RunAtKernelsOf(ex->file, header->header.kernels, "exporting") : Status::Ok();
+      r = at.ok() ? ExportDesign(ex->file, ex->out, o) : Result<ExportReport>(at);
     } else {
       Result<SceneSpec> scene = ResolveScene(ex->file, ex->body);
       r = scene.ok() ? ExportScene(*scene, ex->out, o) : Result<ExportReport>(scene.status());
