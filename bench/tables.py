@@ -263,12 +263,12 @@ def pinned(r):
     part = lambda b, what, key, fmt: f"{what} {b[key]:{fmt}} s against {a[key]:{fmt}} s ({100 * (b[key] / a[key] - 1):+.0f} %)"
     # The highest level is the one kgd chooses on the machine.
     levels = list(d["levels"].items())[::-1]
-    return [f"`kgd design arm_flexion` at each kernel level this machine runs, against its own kernels (`KGD_NATIVE_KERNELS=1`):"] + [
-        f"- {level}{' (the default here)' if k == 0 else ''}: "
-        + ", ".join((part(b, "iteration 0 (cold solve, fully reinforced)", "first_s", ".2f"),
-                     part(b, f"the mean of iterations 1-{b['iterations']}", "mean_later_s", ".3f"),
-                     part(b, f"the whole loop of {b['iterations'] + 1} iterations", "loop_s", ".1f"))) + "."
-        for k, (level, b) in enumerate(levels)]
+    return ["`kgd design arm_flexion` at each kernel level this machine runs, against its own kernels (`KGD_NATIVE_KERNELS=1`): "
+            + "; ".join(f"{level}{' (the default here)' if k == 0 else ''}: "
+                        + ", ".join((part(b, "iteration 0 (cold solve, fully reinforced)", "first_s", ".2f"),
+                                     part(b, f"the mean of iterations 1-{b['iterations']}", "mean_later_s", ".3f"),
+                                     part(b, f"the whole loop of {b['iterations'] + 1} iterations", "loop_s", ".1f")))
+                        for k, (level, b) in enumerate(levels)) + "."]
 
 
 EFFECTS = {

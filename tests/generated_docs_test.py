@@ -272,8 +272,8 @@ class BenchTables(unittest.TestCase):
             self.assertNotRegex(text, r"\b(nan|inf|None)\b", block)
         r = self.run_tables("performance-pinned", ["pinned"])
         self.assertEqual(r.returncode, 0, r.stderr)
-        self.assertIn("- x86-64-v3 (the default here): iteration 0 (cold solve, fully reinforced) 0.85 s against 0.79 s (+8 %)", r.stdout)
-        self.assertIn("- x86-64: iteration 0 (cold solve, fully reinforced) 1.02 s against 0.79 s (+29 %), "
+        self.assertIn("x86-64-v3 (the default here): iteration 0 (cold solve, fully reinforced) 0.85 s against 0.79 s (+8 %)", r.stdout)
+        self.assertIn("; x86-64: iteration 0 (cold solve, fully reinforced) 1.02 s against 0.79 s (+29 %), "
                       "the mean of iterations 1-60 0.062 s against 0.056 s (+11 %)", r.stdout)
 
     def test_cold_table(self):
