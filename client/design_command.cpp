@@ -123,6 +123,9 @@ int RunDesign(const DesignOptions& o) {
     job = ResumeDesignJob(std::move(scene).value(), std::move(file->header), std::move(file->iterations), path,
                           optimizer.has_max_iterations() ? optimizer.max_iterations() : 0);
     if (!job.ok()) return Fail("design", job.message());
+    // The file reads as the job now runs: its new iteration limit.
+    if (optimizer.has_max_iterations())
+      if (Status s = writer->SetSettings(job->header.settings); !s.ok()) return Fail("design", s.message());
   } else {
     Result<SceneSpec> scene = ResolveScene(o.scene, o.body);
     if (!scene.ok()) return Fail("design", scene.message());

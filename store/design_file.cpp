@@ -241,8 +241,10 @@ Result<std::unique_ptr<DesignFileReader>> OpenDesignFileReader(const std::string
   {
     Id job(H5Gopen2(r.file, "job", H5P_DEFAULT), H5Gclose);
     std::string settings;
+    // "settings_next": SetSettings killed between removing the old settings and renaming the new.
+    const char* settings_name = job.ok() && H5Aexists(job, "settings") <= 0 && H5Aexists(job, "settings_next") > 0 ? "settings_next" : "settings";
     if (!job.ok() || !ReadStringAttribute(job, "scene", &h.scene) || !ReadStringAttribute(job, "body", &h.body) ||
-        !ReadStringAttribute(job, "settings", &settings))
+        !ReadStringAttribute(job, settings_name, &settings))
       return Fail(path, "/job is missing or incomplete");
     Result<BesoSettings> s = BesoSettingsFromJson(settings);
     if (!s.ok()) return Fail(path, "/job settings: " + s.message());
@@ -642,6 +644,17 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Salvage(const Design
   }
   (*w)->impl_->path = r.path;
   return w;
+}
+
+Status DesignFileWriter::SetSettings(const BesoSettings& settings) {
+  Impl& m = *impl_;
+  Id job(H5Gopen2(m.file, "job", H5P_DEFAULT), H5Gclose);
+  if (!job.ok()) return Fail(m.path, "/job cannot be opened");
+  if (H5Aexists(job, "settings_next") > 0 && H5Adelete(job, "settings_next") < 0) return Fail(m.path, "/job settings_next cannot be removed");
+  if (!WriteStringAttribute(job, "settings_next", BesoSettingsToJson(settings)) || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0 ||
+      H5Adelete(job, "settings") < 0 || H5Arename(job, "settings_next", "settings") < 0 || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0)
+    return Fail(m.path, "/job settings cannot be replaced");
+  return Status::Ok();
 }
 
 Status DesignFileWriter::Append(const BesoIteration& it) {

@@ -110,6 +110,10 @@ class DesignFileWriter {
 
   // Appends one iteration (its index must be the number stored so far) and flushes it to disk.
   Status Append(const BesoIteration& iteration);
+  // Replaces the stored BESO settings (a resume given another iteration limit), so that the file reads as
+  // the job now runs; the new settings are written beside the old before they replace them, and a file
+  // killed in between reads them.
+  Status SetSettings(const BesoSettings& settings);
   int num_iterations() const { return count_; }
   // Empty, or what Reopen did to a killed writer's or a damaged file ("rebuilt ...: kept K of N iterations").
   const std::string& repair_note() const { return repair_note_; }

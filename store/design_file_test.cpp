@@ -247,6 +247,37 @@ TEST(DesignFile, ReopenKeepsThePrefixAndResumedRunsMatchUninterruptedOnes) {
 
 // A file written before the solve profile existed (no datasets for it) reads the profile as 0, and a
 // resumed run adds the datasets: the old rows read 0, the new ones their values.
+// A resume's new iteration limit replaces the stored settings; a writer killed between removing the
+// old settings and renaming the new ones leaves a file that reads the new.
+TEST(DesignFile, SetSettingsReplacesTheStoredSettingsAndAKilledReplacementReadsTheNew) {
+  const Fixture f = MakeRun(2);
+  const std::string path = TempPath("settings.h5");
+  {
+    auto w = DesignFileWriter::Create(path, f.header);
+    ASSERT_TRUE(w.ok());
+    ASSERT_TRUE((*w)->Append(f.run[0]).ok());
+    BesoSettings later = f.header.settings;
+    later.max_iterations = 30;
+    ASSERT_TRUE((*w)->SetSettings(later).ok());
+    ASSERT_TRUE((*w)->Append(f.run[1]).ok());
+  }
+  Result<DesignFile> d = ReadDesignFile(path);
+  ASSERT_TRUE(d.ok()) << d.message();
+  EXPECT_EQ(d->header.settings.max_iterations, 30);
+  EXPECT_EQ(d->header.settings.budget, f.header.settings.budget);
+  ASSERT_EQ(d->iterations.size(), 2u);
+  {
+    const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+    ASSERT_GE(H5Arename_by_name(file, "job", "settings", "settings_next", H5P_DEFAULT), 0);
+    H5Fclose(file);
+  }
+  d = ReadDesignFile(path);
+  ASSERT_TRUE(d.ok()) << d.message();
+  EXPECT_EQ(d->header.settings.max_iterations, 30);
+  std::filesystem::remove(path);
+}
+
 // A file from before the kernel level was recorded ran the x86-64 pin (core/util/pinned_kernels.h).
 TEST(DesignFile, AFileWithoutItsKernelLevelReadsX8664) {
   const Fixture f = MakeRun(1);

@@ -70,6 +70,9 @@ TEST_F(DesignCommand, RunsDeterministicallyAndResumesBitForBit) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(r.output.find("{\"iteration\":4,"), std::string::npos) << "resumed runs start after the last stored iteration";
   EXPECT_NE(r.output.find("{\"iteration\":5,"), std::string::npos) << r.output;
+  // The file reads as the job now runs: ended at the resumed run's iteration limit.
+  r = Kgd("designs " + Path("c.h5"));
+  EXPECT_NE(r.output.find("iteration limit (12)"), std::string::npos) << r.output;
 
   const Result<DesignFile> a = ReadDesignFile(Path("a.h5")), b = ReadDesignFile(Path("b.h5")), c = ReadDesignFile(Path("c.h5"));
   ASSERT_TRUE(a.ok() && b.ok() && c.ok());
