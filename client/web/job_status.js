@@ -176,7 +176,13 @@ export function progressOf(job, budget) {
   const done = job.state !== 'RUNNING' && job.state !== 'QUEUED';
   if (done) return { text: `${it}, ${ratio}`, fraction: 1 };
   const left = iterationsLeft(job, budget);
-  return { text: `${it}, ${ratio} · ~${Math.round(left * (m.totalS ?? 0))} s left`, fraction: job.iterations / (job.iterations + left) };
+  const fraction = job.iterations / (job.iterations + left);
+  // Stopped part-way and queued again: it resumes on a worker of the kernel level its iterations ran at.
+  if (job.state === 'QUEUED') {
+    const level = job.kernels && job.kernels !== 'unknown' ? ` on an ${job.kernels} worker` : '';
+    return { text: `${it}, ${ratio} · waits to resume${level}`, fraction };
+  }
+  return { text: `${it}, ${ratio} · ~${Math.round(left * (m.totalS ?? 0))} s left`, fraction };
 }
 
 // The sentence the viewer shows over the 3D view for a job ({ text, kind } or null): why it failed,
