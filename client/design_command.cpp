@@ -74,7 +74,7 @@ void PrintMotions(const BesoIteration& it) {
 // with (core/util/pinned_kernels.h). When this process runs another level, the program runs again at the
 // file's (`writer`, when given, closed first) and this returns only with an error, which names the level
 // where the machine cannot run it; a file of native or unpinned kernels goes on with a warning. `doing`
-// says what the command does with the file ("resuming", "evaluating", ...).
+// says what the command does with the file ("resuming it", "simulating its designs", ...).
 Status RunAtKernelsOf(const std::string& path, const std::string& kernels, const std::string& doing,
                       std::unique_ptr<DesignFileWriter>* writer = nullptr) {
   const std::string running = RunningKernels();
@@ -92,7 +92,7 @@ Status RunAtKernelsOf(const std::string& path, const std::string& kernels, const
   const Status s = PinNumericKernelsTo(kernels);
   if (can || s.ok()) return s.WithContext(path + ": ");
   return Status::Error(path + ": computed with the " + kernels + " kernels, and " + s.message() + ": " + doing +
-                       " it here would not repeat them; do it on an " + kernels + " machine" +
+                       " here would not repeat them; do it on an " + kernels + " machine" +
                        (std::getenv("KGD_KERNELS") ? ", or without KGD_KERNELS" : ""));
 }
 
@@ -117,7 +117,7 @@ int RunDesign(const DesignOptions& o) {
     const int n = writer->num_iterations();
     Result<DesignFile> file = ReadDesignFile(path, {.arrays = true, .only_iteration = n - 1});
     if (!file.ok()) return Fail("design", file.message());
-    if (Status s = RunAtKernelsOf(path, file->header.kernels, "resuming", &writer); !s.ok()) return Fail("design", s.message());
+    if (Status s = RunAtKernelsOf(path, file->header.kernels, "resuming it", &writer); !s.ok()) return Fail("design", s.message());
     Result<SceneSpec> scene = RebuildSceneOfDesignFile(path, file->header);
     if (!scene.ok()) return Fail("design", scene.message());
     job = ResumeDesignJob(std::move(scene).value(), std::move(file->header), std::move(file->iterations), path,
@@ -604,7 +604,7 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
     if (std::filesystem::path(ex->file).extension() == ".h5") {
       // The export simulates the cleaned design on the file's scene.
       Result<DesignFile> header = ReadDesignFile(ex->file, {.arrays = false});
-      const Status at = header.ok() ? RunAtKernelsOf(ex->file, header->header.kernels, "exporting") : Status::Ok();
+      const Status at = header.ok() ? RunAtKernelsOf(ex->file, header->header.kernels, "exporting it") : Status::Ok();
       r = at.ok() ? ExportDesign(ex->file, ex->out, o) : Result<ExportReport>(at);
     } else {
       Result<SceneSpec> scene = ResolveScene(ex->file, ex->body);

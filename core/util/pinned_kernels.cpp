@@ -126,8 +126,8 @@ Status PinNumericKernelsTo(const std::string& level) {
   const std::string running = RunningKernels();
   if (running == level || running == kKernelsNative) return Status::Ok();
   if (Rank(level) > Rank(MachineKernelLevel()))
-    return Status::Error("this machine does not run the " + level + " kernels (" +
-                         (Env("KGD_KERNELS").empty() ? "its CPU lacks AVX2 or FMA" : "KGD_KERNELS=" + Env("KGD_KERNELS")) + ")");
+    return Status::Error(Env("KGD_KERNELS").empty() ? "this machine does not run the " + level + " kernels (its CPU lacks AVX2 or FMA)"
+                                                    : "KGD_KERNELS=" + Env("KGD_KERNELS") + " keeps this machine below the " + level + " kernels");
   if (!g_argv) return Status::Error("cannot run the " + level + " kernels: the program did not pin its kernels at start");
   return Status::Error("cannot run the " + level + " kernels (exec: " + Exec(*pin, g_argv) + ")");
 }
