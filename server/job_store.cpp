@@ -192,6 +192,19 @@ void ReadField(const Stmt& s, int c, google::protobuf::Message* m, const FieldDe
 
 Status SqlError(const std::string& what, const std::string& error) { return Status::Error("job store: " + what + ": " + error); }
 
+// Sets one column of a running job whose lease is `lease_id` (the caller holds the store's lock); `what`
+// names it in errors. A blob is bound as bytes, anything else as text.
+Status SetLeasedJobColumn(sqlite3* db, int64_t job_id, const std::string& lease_id, const char* column, const std::string& value, bool blob,
+                          const char* what) {
+  Stmt s(db, std::string("UPDATE jobs SET ") + column + " = ? WHERE id = ? AND lease_id = ? AND state = ?");
+  if (blob) s.BindBlob(1, value);
+  else s.Bind(1, value);
+  s.Bind(2, job_id).Bind(3, lease_id).Bind(4, static_cast<int>(v1::RUNNING));
+  if (!s.Run()) return SqlError(what, s.error());
+  if (sqlite3_changes(db) == 0) return Status::Error("the lease on job " + std::to_string(job_id) + " is no longer held");
+  return Status::Ok();
+}
+
 const char kJobColumns[] =
     "id, spec, state, create_time_s, update_time_s, attempts, iterations, failure, lease_worker, cancel_requested, garment_faces, owner, ended, "
     "kernels";
@@ -582,29 +595,17 @@ Status JobStore::TruncateIterations(int64_t job_id, int keep) {
 
 Status JobStore::SetEnded(int64_t job_id, const std::string& lease_id, const std::string& ended) {
   std::lock_guard lock(mu_);
-  Stmt s(db_, "UPDATE jobs SET ended = ? WHERE id = ? AND lease_id = ? AND state = ?");
-  s.Bind(1, ended).Bind(2, job_id).Bind(3, lease_id).Bind(4, static_cast<int>(v1::RUNNING));
-  if (!s.Run()) return SqlError("job end", s.error());
-  if (sqlite3_changes(db_) == 0) return Status::Error("the lease on job " + std::to_string(job_id) + " is no longer held");
-  return Status::Ok();
+  return SetLeasedJobColumn(db_, job_id, lease_id, "ended", ended, false, "job end");
 }
 
 Status JobStore::SetKernels(int64_t job_id, const std::string& lease_id, const std::string& kernels) {
   std::lock_guard lock(mu_);
-  Stmt s(db_, "UPDATE jobs SET kernels = ? WHERE id = ? AND lease_id = ? AND state = ?");
-  s.Bind(1, kernels).Bind(2, job_id).Bind(3, lease_id).Bind(4, static_cast<int>(v1::RUNNING));
-  if (!s.Run()) return SqlError("kernels", s.error());
-  if (sqlite3_changes(db_) == 0) return Status::Error("the lease on job " + std::to_string(job_id) + " is no longer held");
-  return Status::Ok();
+  return SetLeasedJobColumn(db_, job_id, lease_id, "kernels", kernels, false, "kernels");
 }
 
 Status JobStore::SetCleaned(int64_t job_id, const std::string& lease_id, const v1::CleanedDesign& cleaned) {
   std::lock_guard lock(mu_);
-  Stmt s(db_, "UPDATE jobs SET cleaned = ? WHERE id = ? AND lease_id = ? AND state = ?");
-  s.BindBlob(1, cleaned.SerializeAsString()).Bind(2, job_id).Bind(3, lease_id).Bind(4, static_cast<int>(v1::RUNNING));
-  if (!s.Run()) return SqlError("cleaned design", s.error());
-  if (sqlite3_changes(db_) == 0) return Status::Error("the lease on job " + std::to_string(job_id) + " is no longer held");
-  return Status::Ok();
+  return SetLeasedJobColumn(db_, job_id, lease_id, "cleaned", cleaned.SerializeAsString(), true, "cleaned design");
 }
 
 Result<std::optional<v1::CleanedDesign>> JobStore::Cleaned(int64_t job_id) {
