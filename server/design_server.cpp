@@ -10,6 +10,7 @@
 
 #include "kgd/v1/kgd.grpc.pb.h"
 #include "proto/connection.h"
+#include "server/listen_address.h"
 
 namespace kgd::server {
 using grpc::ServerContext;
@@ -155,6 +156,8 @@ Result<std::unique_ptr<DesignServer>> DesignServer::Start(JobService& service, c
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
+  // No SO_REUSEPORT: a port another server listens on is refused rather than shared with it.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.AddListeningPort(options.address, credentials, &m.port);
   if (!options.internal_address.empty()) builder.AddListeningPort(options.internal_address, grpc::InsecureServerCredentials(), &m.internal_port);
   builder.SetMaxReceiveMessageSize(options.max_message_bytes);
@@ -162,7 +165,13 @@ Result<std::unique_ptr<DesignServer>> DesignServer::Start(JobService& service, c
   builder.RegisterService(static_cast<v1::DesignService::Service*>(m.services.get()));
   builder.RegisterService(static_cast<v1::WorkerService::Service*>(m.services.get()));
   m.server = builder.BuildAndStart();
-  if (!m.server || m.port == 0) return Status::Error(options.address + ": cannot listen (address in use?)");
+  if (!m.server || m.port == 0 || (!options.internal_address.empty() && m.internal_port == 0)) {
+    // Which port failed: with a server built, the internal one; without, either (nothing of ours listens).
+    if (!m.server) KGD_RETURN_IF_ERROR(CheckAddressFree("--listen", options.address));
+    if (!options.internal_address.empty()) KGD_RETURN_IF_ERROR(CheckAddressFree("--internal-listen", options.internal_address));
+    return Status::Error(options.address + (options.internal_address.empty() ? "" : " or " + options.internal_address) +
+                         ": cannot listen (not an address of this machine?)");
+  }
   if (!options.quiet) std::fprintf(stderr, "kgd-server: serving on %s (data in %s)\n", s->address().c_str(), service.options().data_dir.c_str());
   return s;
 }

@@ -12,11 +12,18 @@
 #include "proto/job_spec.h"
 #include "proto/connection.h"
 #include "server/job_results.h"
+#include "server/listen_address.h"
 #include "server/region_check.h"
 #include "server/scene_body.h"
 // After Eigen (through the headers above): a macro of the socket headers it pulls in breaks Eigen's.
 #include <httplib.h>
+#include <arpa/inet.h>
+#include <ifaddrs.h>
+#include <netinet/in.h>
 #include <sys/socket.h>
+
+#include <optional>
+#include <set>
 
 namespace kgd::server {
 namespace {
@@ -126,6 +133,84 @@ void SetEnergyPerArea(httplib::Response& res, const v1::Garment& g, const std::s
   res.set_content(LittleEndianBytes(e), "application/octet-stream");
 }
 
+// A Host header's or an origin's host and port: the host lowercased, an IP address in its canonical
+// text (IPv6 in brackets); port -1 when none is given.
+struct Authority {
+  std::string host;
+  int port = -1;
+};
+
+std::string Lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// An IP address's canonical text (IPv6 in brackets); empty when `host` is not an IP address.
+std::string CanonicalIp(const std::string& host) {
+  const bool bracketed = host.size() >= 2 && host.front() == '[' && host.back() == ']';
+  const std::string bare = bracketed ? host.substr(1, host.size() - 2) : host;
+  unsigned char bytes[16];
+  char text[INET6_ADDRSTRLEN];
+  if (!bracketed && inet_pton(AF_INET, bare.c_str(), bytes) == 1) return inet_ntop(AF_INET, bytes, text, sizeof text);
+  if (inet_pton(AF_INET6, bare.c_str(), bytes) == 1) return "[" + std::string(inet_ntop(AF_INET6, bytes, text, sizeof text)) + "]";
+  return "";
+}
+
+// HOST[:PORT] ([IPv6][:PORT]); nullopt when it is not one.
+std::optional<Authority> ParseAuthority(const std::string& text) {
+  Authority a;
+  std::string rest;
+  if (!text.empty() && text.front() == '[') {
+    const size_t close = text.find(']');
+    if (close == std::string::npos) return std::nullopt;
+    a.host = text.substr(0, close + 1);
+    rest = text.substr(close + 1);
+  } else {
+    const size_t colon = text.find(':');
+    a.host = text.substr(0, colon);
+    if (colon != std::string::npos) rest = text.substr(colon);
+  }
+  if (a.host.empty() || a.host.find_first_of(" /@?#\\") != std::string::npos) return std::nullopt;
+  if (!rest.empty()) {
+    long long port = 0;
+    if (rest.front() != ':' || !ParseInt(rest.substr(1), 0, &port) || port > 65535) return std::nullopt;
+    a.port = static_cast<int>(port);
+  }
+  const std::string ip = CanonicalIp(a.host);
+  a.host = ip.empty() ? Lower(a.host) : ip;
+  return a;
+}
+
+// The SCHEME://HOST[:PORT] of an Origin header or a Referer URL: its authority with the scheme's port
+// when it names none; nullopt when it is no such URL ("null", a file: page).
+std::optional<Authority> OriginAuthority(const std::string& url) {
+  const size_t sep = url.find("://");
+  if (sep == std::string::npos) return std::nullopt;
+  const std::string scheme = Lower(url.substr(0, sep));
+  std::string authority = url.substr(sep + 3, url.find_first_of("/?#", sep + 3) - (sep + 3));
+  if (const size_t at = authority.rfind('@'); at != std::string::npos) authority = authority.substr(at + 1);
+  std::optional<Authority> a = ParseAuthority(authority);
+  if (a && a->port < 0) a->port = scheme == "https" ? 443 : scheme == "http" ? 80 : -1;
+  return a;
+}
+
+// The addresses of this machine's network interfaces, canonical (IPv6 in brackets).
+std::set<std::string> InterfaceAddresses() {
+  std::set<std::string> out;
+  ifaddrs* list = nullptr;
+  if (getifaddrs(&list) != 0) return out;
+  for (ifaddrs* i = list; i; i = i->ifa_next) {
+    if (!i->ifa_addr) continue;
+    char text[INET6_ADDRSTRLEN];
+    if (i->ifa_addr->sa_family == AF_INET)
+      out.insert(inet_ntop(AF_INET, &reinterpret_cast<sockaddr_in*>(i->ifa_addr)->sin_addr, text, sizeof text));
+    else if (i->ifa_addr->sa_family == AF_INET6)
+      out.insert("[" + std::string(inet_ntop(AF_INET6, &reinterpret_cast<sockaddr_in6*>(i->ifa_addr)->sin6_addr, text, sizeof text)) + "]");
+  }
+  freeifaddrs(list);
+  return out;
+}
+
 }  // namespace
 
 struct HttpGateway::Impl {
@@ -138,6 +223,53 @@ struct HttpGateway::Impl {
   std::string host;
   int listening_socket = -1;  // the socket the library made last (set in its socket-options callback)
   SceneBodies scene_bodies;   // the built-in scenes' posed bodies, for GET /v1/scenes/{name}/body/...
+  std::vector<Authority> allowed_hosts;  // --allowed-host (port -1: any)
+  std::set<std::string> own_hosts;       // the --http host; loopback names on loopback or every address
+  bool every_address = false;            // --http 0.0.0.0 or [::]: this machine's addresses are its names too
+
+  // The names the server answers to: `own_hosts` (on every address, also this machine's interface
+  // addresses) at the port it listens on, or with `any_port` at any (a browser sends a Host only to
+  // the server it connected to, so for a Host header the name is what counts: a DNS rebinding page
+  // sends its own), and the --allowed-host names at their port, if they name one.
+  bool Names(const Authority& a, bool any_port) const {
+    const int port = a.port >= 0 ? a.port : (options.tls_cert.empty() ? 80 : 443);
+    for (const Authority& allowed : allowed_hosts)
+      if (allowed.host == a.host && (allowed.port < 0 || allowed.port == port)) return true;
+    if (!any_port && port != this->port) return false;
+    if (own_hosts.count(a.host)) return true;
+    return every_address && !CanonicalIp(a.host).empty() && InterfaceAddresses().count(a.host);
+  }
+
+  // A DNS rebinding page (a foreign name resolved to this machine) is refused on every request by its
+  // Host header; a page of another origin is refused on every request that changes anything by its
+  // Origin (or, without one, its Referer). Requests with neither come from programs, not pages, and
+  // requests without a Host from HTTP/1.0 programs: no browser sends one without it.
+  bool Refused(const httplib::Request& req, httplib::Response& res) const {
+    std::optional<Authority> host;
+    if (req.has_header("Host")) {
+      const std::string text = req.get_header_value("Host");
+      host = ParseAuthority(text);
+      if (!host || !Names(*host, true)) {
+        SetError(res, 403, ServiceCode::kPermissionDenied,
+                 "host '" + text + "' is not a name of this server (--allowed-host NAME[:PORT] adds one)");
+        return true;
+      }
+    }
+    if (req.method == "GET" || req.method == "HEAD" || req.method == "OPTIONS") return false;
+    const bool has_origin = req.has_header("Origin");
+    if (!has_origin && !req.has_header("Referer")) return false;
+    const std::string page = req.get_header_value(has_origin ? "Origin" : "Referer");
+    const std::optional<Authority> origin = OriginAuthority(page);
+    const int default_port = options.tls_cert.empty() ? 80 : 443;
+    const bool same_origin = origin && host && origin->host == host->host && origin->port == (host->port >= 0 ? host->port : default_port);
+    if (origin && (same_origin || Names(*origin, false))) return false;
+    const size_t sep = page.find("://");
+    const std::string from = sep == std::string::npos ? page : page.substr(0, page.find_first_of("/?#", sep + 3));
+    SetError(res, 403, ServiceCode::kPermissionDenied,
+             "a page from " + (from.empty() ? std::string("an unnamed origin") : from) + (has_origin ? "" : " (its Referer)") + " may not " +
+                 req.method + " " + req.path + " on this server: only the server's own page may (--allowed-host NAME[:PORT] names another)");
+    return true;
+  }
 
   // The request's caller: the Authorization header's bearer token, or for GET (the browser's
   // EventSource and download links cannot send headers) the cookie kgd_token.
@@ -600,6 +732,10 @@ Status HttpGateway::CheckOptions(const HttpOptions& options, bool tokens) {
     return Status::Error("--http " + options.address + ": expected HOST:PORT");
   if (!options.web_dir.empty() && !std::filesystem::is_regular_file(std::filesystem::path(options.web_dir) / "index.html"))
     return Status::Error("web page folder " + options.web_dir + " has no index.html");
+  const std::string host = options.address.substr(0, colon);
+  if (!host.empty() && host != "::" && !ParseAuthority(host)) return Status::Error("--http " + options.address + ": expected HOST:PORT");
+  for (const std::string& name : options.allowed_hosts)
+    if (name.empty() || !ParseAuthority(name)) return Status::Error("--allowed-host '" + name + "': expected NAME or NAME:PORT");
   const bool tls = !options.tls_cert.empty() || !options.tls_key.empty();
   if (tls && (options.tls_cert.empty() || options.tls_key.empty())) return Status::Error("HTTPS needs both --tls-cert and --tls-key");
   return CheckExposure("--http", options.address, tls, tokens, options.insecure);
@@ -615,6 +751,11 @@ Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService& service, con
   m.service = &service;
   m.options = options;
   m.host = options.address.substr(0, colon);
+  for (const std::string& name : options.allowed_hosts) m.allowed_hosts.push_back(*ParseAuthority(name));  // CheckOptions parsed each
+  m.every_address = m.host.empty() || m.host == "0.0.0.0" || m.host == "[::]" || m.host == "::";
+  if (!m.every_address) m.own_hosts.insert(ParseAuthority(m.host)->host);
+  if (m.every_address || IsLoopbackAddress(options.address))
+    for (const char* name : {"127.0.0.1", "localhost", "[::1]"}) m.own_hosts.insert(name);
   if (!options.tls_cert.empty()) {
     for (const auto& [path, what] : {std::pair{options.tls_cert, "certificate (--tls-cert)"}, std::pair{options.tls_key, "private key (--tls-key)"}})
       if (Result<std::string> pem = ReadPemFile(path, what); !pem.ok()) return pem.status();
@@ -631,11 +772,13 @@ Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService& service, con
   http.new_task_queue = [n = static_cast<size_t>(std::max(held, 0) + 16)] { return new httplib::ThreadPool(n); };
   // Debian's cpp-httplib compresses with Brotli at its slowest quality whenever a client accepts it
   // (1.3 s for three.js); gzip costs 2 % of that, so the gateway hides "br" from the library.
-  // Every API request and /metrics is authenticated here first (the page's static files are public).
+  // Every request's Host, and every change's Origin, is checked here first (Impl::Refused); then every
+  // API request and /metrics is authenticated (the page's static files are public).
   http.set_pre_routing_handler([&m](const Request& req, Response& res) {
     auto& headers = const_cast<Request&>(req).headers;  // the library's own, non-const Request
     auto it = headers.find("Accept-Encoding");
     if (it != headers.end() && it->second.find("br") != std::string::npos) it->second = it->second.find("gzip") != std::string::npos ? "gzip" : "";
+    if (m.Refused(req, res)) return httplib::Server::HandlerResponse::Handled;
     if (req.path.rfind("/v1/", 0) != 0 && req.path != "/metrics") return httplib::Server::HandlerResponse::Unhandled;
     Result<Caller> caller = m.Authenticate(req);
     if (!caller.ok()) {
@@ -694,16 +837,21 @@ Result<std::unique_ptr<HttpGateway>> HttpGateway::Start(JobService& service, con
   m.EvaluationRoutes();
   m.DesignFileRoutes();
   m.RegionRoutes();
-  // The library's own options (address reuse), and the socket kept to widen its listen queue below.
+  // SO_REUSEADDR (a port in TIME_WAIT is taken again) but not the library's SO_REUSEPORT, with which a
+  // second server would share the port; the socket is kept to widen its listen queue below.
   http.set_socket_options([&m](int sock) {
-    httplib::default_socket_options(sock);
+    const int yes = 1;
+    ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
     m.listening_socket = sock;
   });
   if (port == 0) {
     m.port = http.bind_to_any_port(m.host);
     if (m.port <= 0) return Status::Error("--http " + options.address + ": cannot bind a port on " + m.host);
   } else {
-    if (!http.bind_to_port(m.host, port)) return Status::Error("--http " + options.address + ": cannot bind (in use, or not an address of this machine?)");
+    if (!http.bind_to_port(m.host, port)) {
+      KGD_RETURN_IF_ERROR(CheckAddressFree("--http", options.address));
+      return Status::Error("--http " + options.address + ": cannot bind (not an address of this machine?)");
+    }
     m.port = port;
   }
   // Debian's cpp-httplib listens with a backlog of 5 (compiled in): a burst of connections, such as a

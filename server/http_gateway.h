@@ -46,12 +46,19 @@
 //        the scene poses it, OBJ (server/scene_body.h; the first request of a body takes a job's set-up time)
 //   GET  /                                               the web page (static files of web_dir)
 //
+// Every request whose Host header is not a name of the server (its --http address; 127.0.0.1,
+// localhost and [::1] on loopback or every address; on every address, this machine's IP addresses;
+// the --allowed-host names) gets 403, as does every POST, PUT, PATCH or DELETE from a page of another
+// origin (its Origin, or without one its Referer): a foreign web page can neither read the service
+// through a DNS-rebound name nor submit to it with a form.
+//
 // The handlers only translate (path and query to request, status to HTTP status, messages to JSON,
 // arrays to bytes); what they serve comes from JobService and server/job_results.h.
 #pragma once
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/util/status.h"
 #include "server/job_service.h"
@@ -65,6 +72,9 @@ struct HttpOptions {
   double keepalive_s = 10;                 // an SSE comment this often keeps idle watches alive
   std::string tls_cert, tls_key;           // PEM files: serve HTTPS; empty: plain HTTP
   bool insecure = false;                   // allow a non-loopback address without TLS and tokens
+  // Names besides its own address (NAME: any port; NAME:PORT: that one) that requests' Host headers,
+  // and the Origin of requests that change anything, may give: a Service's or an ingress's name.
+  std::vector<std::string> allowed_hosts;
 };
 
 // Open :watch streams are bounded by the service (ServiceLimits::max_held_watches, --max-watchers:

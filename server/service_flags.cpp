@@ -19,6 +19,10 @@ void AddServiceFlags(CLI::App* app, ServiceFlags* f) {
                   h.http.address.empty() ? "host:port of the web page and the HTTP/JSON API (default: none; port 0: any free port)"
                                          : "host:port of the web page and the HTTP/JSON API (port 0: any free port)")
       ->capture_default_str();
+  app->add_option("--allowed-host", h.http.allowed_hosts,
+                  "A name (NAME: any port; NAME:PORT) the HTTP door also answers to, besides its address (and 127.0.0.1, localhost, "
+                  "[::1] on loopback; this machine's IP addresses on 0.0.0.0): a Service's or an ingress's; repeatable")
+      ->expected(1)->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   app->add_option("--web", h.http.web_dir, "Folder of the web page's files")->capture_default_str();
   app->add_option("--max-upload-mb", f->max_upload_mb, "Largest HTTP request body accepted (MiB)")->check(CLI::PositiveNumber)->capture_default_str();
   ServiceLimits& l = h.service.limits;

@@ -2,6 +2,7 @@
 // service_host.h):
 //   --data, --listen, --internal-listen, --lease-s, --max-attempts, --max-message-mb, --drain-s, --quiet
 //   --http HOST:PORT, --web DIR, --max-upload-mb   the HTTP door and the web page
+//   --allowed-host NAME[:PORT]   a name the HTTP door answers to besides its address (repeatable)
 //   --auth-tokens FILE   bearer tokens (server/auth.h): every request needs one; jobs have owners
 //   --tls-cert, --tls-key  PEM files: gRPC and HTTP over TLS
 //   --insecure           serve a non-loopback address without TLS and tokens (refused otherwise)

@@ -1,5 +1,7 @@
 #include "server/service_host.h"
 
+#include "server/listen_address.h"
+
 namespace kgd::server {
 
 Result<std::unique_ptr<ServiceHost>> ServiceHost::Start(HostOptions o) {
@@ -14,6 +16,11 @@ Result<std::unique_ptr<ServiceHost>> ServiceHost::Start(HostOptions o) {
   const bool tokens = o.service.tokens.enabled();
   KGD_RETURN_IF_ERROR(DesignServer::CheckOptions(o.grpc, tokens));
   if (!o.http.address.empty()) KGD_RETURN_IF_ERROR(HttpGateway::CheckOptions(o.http, tokens));
+  // A taken address is refused before the data folder is opened (the doors refuse it too, should it
+  // be taken in between).
+  KGD_RETURN_IF_ERROR(CheckAddressFree("--listen", o.grpc.address));
+  if (!o.grpc.internal_address.empty()) KGD_RETURN_IF_ERROR(CheckAddressFree("--internal-listen", o.grpc.internal_address));
+  if (!o.http.address.empty()) KGD_RETURN_IF_ERROR(CheckAddressFree("--http", o.http.address));
   h->options_ = o;
   Result<std::unique_ptr<JobService>> service = JobService::Open(o.service);
   if (!service.ok()) return service.status();

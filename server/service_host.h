@@ -3,7 +3,8 @@
 // kgd-server and `kgd serve` are both this host, with the flags of server/service_flags.h; `kgd serve`
 // also runs workers in the process, which connect where worker_connection() says.
 //
-//   Start      checks both doors' options (nothing is created when one is refused), opens the
+//   Start      checks both doors' options and that their addresses are free (nothing is created
+//              when one is refused: a second server on a taken port exits naming it), opens the
 //              service (repairing the data folder), starts the gRPC door, then the HTTP door
 //   Shutdown   stops the HTTP door, drains (running workers checkpoint and release their jobs, up
 //              to drain_timeout_s), calls `after_drain` (in-process workers stop there), stops the

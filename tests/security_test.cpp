@@ -687,5 +687,164 @@ TEST(SecurityLimits, AJobWhoseDesignFileOutgrowsTheLimitFailsNamingIt) {
   EXPECT_NE(job.find("--max-design-file-mb"), std::string::npos) << job;
 }
 
+// ---- ports and pages: one server per port, and no other web site's page ----
+
+// `kgd serve` as on a laptop: loopback, no tokens, no TLS, no workers (jobs stay queued), and one
+// --allowed-host name.
+class LaptopServe {
+ public:
+  explicit LaptopServe(const std::string& name) {
+    dir_ = (fs::temp_directory_path() / ("kgd_security_laptop_" + std::to_string(getpid()) + "_" + name)).string();
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    grpc_ = "127.0.0.1:" + std::to_string(FreePort());
+    http_port_ = FreePort();
+    server_ = Process::Spawn({KGD_BINARY, "serve", "--data", dir_ + "/data", "--listen", grpc_, "--http", "127.0.0.1:" + std::to_string(http_port_),
+                              "--workers", "0", "--allowed-host", "kgd.test"},
+                             dir_ + "/serve.log");
+    ok_ = WaitFor([&] { return Log().find("web page and HTTP API") != std::string::npos; }, 30);
+  }
+  ~LaptopServe() {
+    server_.Signal(SIGKILL);
+    server_.Wait();
+    if (!::testing::UnitTest::GetInstance()->failed_test_count()) fs::remove_all(dir_);
+  }
+  bool ok() const { return ok_; }
+  std::string Log() const { return ReadText(dir_ + "/serve.log"); }
+  int http_port() const { return http_port_; }
+  const std::string& grpc() const { return grpc_; }
+  const std::string& dir() const { return dir_; }
+  pid_t pid() const { return server_.pid; }
+  // A client of the HTTP door; a request's own Host header, when it gives one, replaces 127.0.0.1:PORT.
+  httplib::Client Http() const {
+    httplib::Client c("127.0.0.1", http_port_);
+    c.set_read_timeout(30, 0);
+    return c;
+  }
+  // The job list as the server itself answers it (Host 127.0.0.1:PORT, no Origin).
+  std::string Jobs() const {
+    auto res = Http().Get("/v1/jobs");
+    return res && res->status == 200 ? res->body : "no answer";
+  }
+
+ private:
+  std::string dir_, grpc_;
+  int http_port_ = 0;
+  bool ok_ = false;
+  Process server_;
+};
+
+const char* kLabelledJob = R"({"builtinScene": "sleeve_on_limb", "optimizer": {"maxIterations": 2}, "label": "private-design-label"})";
+
+TEST(SecurityPorts, ASecondServerOnTakenPortsExitsNamingTheAddressAndWhatHoldsIt) {
+  LaptopServe first("first");
+  ASSERT_TRUE(first.ok()) << first.Log();
+  const std::string grpc = first.grpc(), http = "127.0.0.1:" + std::to_string(first.http_port());
+  const std::string dir = first.dir();
+  // Both of the first's addresses: the gRPC one is refused first; nothing of the second's data folder is created.
+  auto [code, out] = RunToExit({KGD_BINARY, "serve", "--data", dir + "/second", "--listen", grpc, "--http", http, "--workers", "0"},
+                               dir + "/second.log", "listening on");
+  EXPECT_NE(code, 0) << out;
+  EXPECT_NE(code, -1) << "the second server started:\n" << out;
+  EXPECT_NE(out.find("--listen " + grpc + ": address already in use"), std::string::npos) << out;
+  EXPECT_NE(out.find("pid " + std::to_string(first.pid())), std::string::npos) << "the holder is named:\n" << out;
+  EXPECT_FALSE(fs::exists(dir + "/second")) << out;
+  // Its HTTP address alone, from kgd-server.
+  std::tie(code, out) = RunToExit({KGD_SERVER_BINARY, "--data", dir + "/third", "--listen", "127.0.0.1:" + std::to_string(FreePort()), "--http", http},
+                                  dir + "/third.log", "listening on");
+  EXPECT_NE(code, 0) << out;
+  EXPECT_NE(code, -1) << "the third server started:\n" << out;
+  EXPECT_NE(out.find("--http " + http + ": address already in use"), std::string::npos) << out;
+  EXPECT_NE(out.find("serve --data " + dir + "/data"), std::string::npos) << "the holder's command line:\n" << out;
+  // The first still answers alone: a job created on it is in its list, every time.
+  ASSERT_EQ(first.Http().Post("/v1/jobs", kLabelledJob, "application/json")->status, 200);
+  for (int i = 0; i < 6; ++i) EXPECT_NE(first.Jobs().find("private-design-label"), std::string::npos) << "request " << i;
+}
+
+TEST(SecurityPages, AnotherSitesFormCannotCreateAJob) {
+  LaptopServe s("csrf");
+  ASSERT_TRUE(s.ok()) << s.Log();
+  auto http = s.Http();
+  // The multipart form any page may post cross-site without a preflight.
+  const httplib::MultipartFormDataItems form = {{"scene", R"({"builtin": "sleeve_on_limb"})", "scene.json", "application/json"}};
+  auto res = http.Post("/v1/jobs", {{"Origin", "https://evil.example"}}, form);
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 403) << res->body;
+  EXPECT_NE(res->body.find("https://evil.example"), std::string::npos) << res->body;
+  // A text/plain body (the other kind a form or a no-cors fetch sends), a foreign Referer without an
+  // Origin, an opaque origin (a sandboxed frame, a file), and another local port's page.
+  res = http.Post("/v1/jobs", {{"Origin", "https://evil.example"}}, kLabelledJob, "text/plain");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 403) << res->body;
+  res = http.Post("/v1/jobs", {{"Referer", "https://evil.example/attack.html?x=1"}}, kLabelledJob, "text/plain");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 403) << res->body;
+  EXPECT_NE(res->body.find("https://evil.example (its Referer)"), std::string::npos) << res->body;
+  res = http.Post("/v1/jobs", {{"Origin", "null"}}, kLabelledJob, "application/json");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 403) << res->body;
+  res = http.Post("/v1/jobs", {{"Origin", "http://localhost:" + std::to_string(FreePort())}}, kLabelledJob, "application/json");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 403) << res->body;
+  res = http.Post("/v1/jobs/1:cancel", {{"Origin", "https://evil.example"}}, "", "text/plain");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 403) << res->body;
+  // No job was created.
+  EXPECT_NE(s.Jobs().find("\"jobs\":[]"), std::string::npos) << s.Jobs();
+}
+
+TEST(SecurityPages, AForeignHostNameReadsNothing) {
+  LaptopServe s("rebind");
+  ASSERT_TRUE(s.ok()) << s.Log();
+  auto http = s.Http();
+  ASSERT_EQ(http.Post("/v1/jobs", kLabelledJob, "application/json")->status, 200);
+  // A page whose name was rebound to 127.0.0.1: its requests carry its own name as the Host.
+  const std::string evil = "evil.example:" + std::to_string(s.http_port());
+  for (const std::string path : {"/v1/jobs", "/v1/jobs/1", "/v1/jobs/1:watch?view=metrics", "/", "/index.html", "/app.js"}) {
+    auto res = http.Get(path, {{"Host", evil}});
+    ASSERT_TRUE(res) << path;
+    EXPECT_EQ(res->status, 403) << path << ": " << res->body;
+    EXPECT_NE(res->body.find("host '" + evil + "'"), std::string::npos) << path << ": " << res->body;
+    EXPECT_EQ(res->body.find("private-design-label"), std::string::npos) << path << ": " << res->body;
+  }
+  auto res = http.Post("/v1/jobs", {{"Host", evil}, {"Origin", "http://" + evil}}, kLabelledJob, "application/json");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 403) << res->body;
+  EXPECT_EQ(s.Jobs().find("\"id\":\"2\""), std::string::npos) << s.Jobs();
+}
+
+TEST(SecurityPages, TheServersOwnPageAndAnAllowedHostWork) {
+  LaptopServe s("own");
+  ASSERT_TRUE(s.ok()) << s.Log();
+  auto http = s.Http();
+  const std::string port = std::to_string(s.http_port());
+  // The page at http://127.0.0.1:PORT/ and at http://localhost:PORT/: Chromium sends its Origin on its
+  // same-origin POSTs (JSON and the studio's multipart upload).
+  for (const std::string name : {"127.0.0.1", "localhost", "[::1]", "kgd.test"}) {
+    const std::string host = name + ":" + port, origin = "http://" + host;
+    auto res = http.Post("/v1/jobs", {{"Host", host}, {"Origin", origin}}, kLabelledJob, "application/json");
+    ASSERT_TRUE(res) << host;
+    EXPECT_EQ(res->status, 200) << host << ": " << res->body;
+    res = http.Get("/v1/jobs", {{"Host", host}});
+    ASSERT_TRUE(res) << host;
+    EXPECT_EQ(res->status, 200) << host << ": " << res->body;
+    EXPECT_NE(res->body.find("private-design-label"), std::string::npos) << host << ": " << res->body;
+    res = http.Get("/", {{"Host", host}, {"Referer", origin + "/"}});
+    ASSERT_TRUE(res) << host;
+    EXPECT_EQ(res->status, 200) << host;
+  }
+  // An upload from its own page, with the Referer it sends beside its Origin.
+  const httplib::MultipartFormDataItems form = {{"scene", R"({"builtin": "sleeve_on_limb"})", "scene.json", "application/json"}};
+  auto res = http.Post("/v1/jobs", {{"Origin", "http://127.0.0.1:" + port}, {"Referer", "http://127.0.0.1:" + port + "/#studio"}}, form);
+  ASSERT_TRUE(res);
+  EXPECT_NE(res->status, 403) << res->body;
+  // A program (curl, the tests) sends neither Origin nor Referer.
+  EXPECT_EQ(http.Post("/v1/jobs", kLabelledJob, "application/json")->status, 200);
+  // The CLI talks gRPC and is not affected.
+  const cli_test::CommandRun jobs = cli_test::Kgd("jobs --server " + s.grpc());
+  EXPECT_EQ(jobs.exit_code, 0) << jobs.output;
+  EXPECT_NE(jobs.output.find("private-design-label"), std::string::npos) << jobs.output;
+}
+
 }  // namespace
 }  // namespace kgd
