@@ -16,7 +16,7 @@ run() {
     x86-64|x86-64-v3) envs=(KGD_KERNELS=$1) ;;
     native) envs=(KGD_NATIVE_KERNELS=1) ;;
   esac
-  env "${envs[@]}" /usr/bin/time -f "%U %S" -o "$work/cpu" "$kgd" design "$scene" --iterations "$2" --json --out "$work/d.h5" > "$work/lines" || return 1
+  env "${envs[@]}" /usr/bin/time -f "%U %S" -o "$work/cpu" "$kgd" design "$scene" --iterations "$2" --json --overwrite --out "$work/d.h5" > "$work/lines" || return 1
   python3 - "$work/cpu" "$work/lines" <<'PY'
 import json, sys
 u, s = map(float, open(sys.argv[1]).read().split()[-2:])

@@ -47,8 +47,13 @@ struct DesignOptions {
   std::string out;
   std::string resume;
   OptimizerFlags optimizer;
-  bool json = false, verbose = false, evaluate = false;
+  bool json = false, verbose = false, evaluate = false, overwrite = false;
 };
+
+// Exit codes beyond 0 (done), 2 (bad input or usage), 3 (the run failed) and 130 (interrupted):
+// the design could not be stored (a full disk, an I/O error, another writer), or a file read is damaged.
+constexpr int kExitStorage = 4;
+constexpr int kExitDamaged = 5;
 
 std::string Duration(double s) {
   char buf[32];
@@ -99,7 +104,7 @@ Status RunAtKernelsOf(const std::string& path, const std::string& kernels, const
 int RunDesign(const DesignOptions& o) {
   const bool resume = !o.resume.empty();
   const v1::OptimizerSettings optimizer = ToProto(o.optimizer);
-  if (resume && (AnyDesignFlagGiven(o.optimizer) || !o.body.empty() || !o.out.empty()))
+  if (resume && (AnyDesignFlagGiven(o.optimizer) || !o.body.empty() || !o.out.empty() || o.overwrite))
     return Fail("design", "--resume continues the stored job with its own settings (its solves' quality too); only --iterations may be given with it");
   if (!resume && o.scene.empty()) return Fail("design", "give a scene (a built-in name or a scene file), or --resume FILE");
   if (resume && !o.scene.empty()) return Fail("design", "give either a scene or --resume FILE, not both");
@@ -111,7 +116,7 @@ int RunDesign(const DesignOptions& o) {
     path = o.resume;
     // Reopened first: a file left by a killed run is rebuilt from its intact iterations before any is read.
     Result<std::unique_ptr<DesignFileWriter>> w = DesignFileWriter::Reopen(path);
-    if (!w.ok()) return Fail("design", w.message());
+    if (!w.ok()) return Fail("design", w.message(), kExitStorage);
     writer = std::move(w).value();
     if (!writer->repair_note().empty()) std::fprintf(stderr, "kgd design: %s: %s\n", path.c_str(), writer->repair_note().c_str());
     const int n = writer->num_iterations();
@@ -134,8 +139,10 @@ int RunDesign(const DesignOptions& o) {
                        std::filesystem::exists(o.scene) ? std::filesystem::absolute(o.scene).string() : o.scene, JoinWords(o.body));
     if (!job.ok()) return Fail("design", job.message());
     path = o.out.empty() ? name + ".h5" : o.out;
+    if (std::error_code ec; std::filesystem::exists(path, ec) && !o.overwrite)
+      return Fail("design", path + " exists: --overwrite replaces it, --resume " + path + " continues the job it holds");
     Result<std::unique_ptr<DesignFileWriter>> w = DesignFileWriter::Create(path, job->header);
-    if (!w.ok()) return Fail("design", w.message());
+    if (!w.ok()) return Fail("design", w.message(), kExitStorage);
     writer = std::move(w).value();
   }
   SceneSpec& scene = job->scene;
@@ -220,7 +227,8 @@ int RunDesign(const DesignOptions& o) {
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   if (bar) std::printf("\n");
-  if (!write_status.ok()) return Fail("design", write_status.message());
+  if (!write_status.ok())
+    return Fail("design", write_status.message() + "; once there is room, continue with: kgd design --resume " + path, kExitStorage);
   // Refused before its first iteration (the scene or the settings: a garment that is not symmetric, a
   // pressure limit the cloth garment already breaks): bad input; the new file holds no iteration and goes.
   if (!run.ok() && metrics.empty()) {
@@ -280,7 +288,43 @@ int RunDesign(const DesignOptions& o) {
   return 0;
 }
 
+// What a damaged design file still holds, for the message that refuses to serve it.
+std::string DescribeDamage(const std::string& path, const DesignFileCheck& c) {
+  std::string kept = c.intact == 0 ? "no iteration before it is intact"
+                                   : "iterations 0.." + std::to_string(c.intact - 1) + " are intact (`kgd design --resume " + path +
+                                         "` rebuilds the file from them and continues; the damaged file is kept beside it)";
+  return c.first_damage + "; " + std::to_string(c.damaged.size()) + " of " + std::to_string(c.iterations) + " iterations damaged; " + kept;
+}
+
+// `kgd check FILE...`: every iteration of each design file read back whole, checksums verified.
+int RunCheck(const std::vector<std::string>& paths, bool json) {
+  int code = 0;
+  nlohmann::ordered_json all = nlohmann::ordered_json::array();
+  for (const std::string& path : paths) {
+    Result<DesignFileCheck> c = CheckDesignFile(path);
+    nlohmann::ordered_json j{{"file", path}};
+    if (!c.ok()) {
+      j["ok"] = false, j["error"] = c.message();
+      if (!json) std::printf("%s: unreadable: %s\n", path.c_str(), c.message().c_str());
+      code = kExitDamaged;
+    } else {
+      j["ok"] = c->ok(), j["iterations"] = c->iterations, j["intact"] = c->intact, j["damaged"] = c->damaged;
+      if (!c->ok()) j["error"] = c->first_damage;
+      if (!json && c->ok()) std::printf("%s: intact, %d iterations (every chunk's checksum verified)\n", path.c_str(), c->iterations);
+      if (!json && !c->ok()) std::printf("%s: damaged: %s\n", path.c_str(), DescribeDamage(path, *c).c_str());
+      if (!c->ok()) code = kExitDamaged;
+    }
+    all.push_back(j);
+  }
+  if (json) std::printf("%s\n", (paths.size() == 1 ? all[0] : all).dump().c_str());
+  return code;
+}
+
 int RunDesigns(const std::string& path, bool json) {
+  // Verified first: a history is printed only when every iteration it lists reads back whole.
+  Result<DesignFileCheck> check = CheckDesignFile(path);
+  if (!check.ok()) return Fail("designs", check.message());
+  if (!check->ok()) return Fail("designs", DescribeDamage(path, *check), kExitDamaged);
   Result<DesignFile> f = ReadDesignFile(path, {.arrays = false});
   if (!f.ok()) return Fail("designs", f.message());
   const DesignFileHeader& h = f->header;
@@ -517,6 +561,7 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
   d->add_option("--body", o->body, "A measurement of the parametric body, name=value in SI (repeatable)");
   d->add_option("--out", o->out, "Design file to write (default: SCENE.h5 in the current folder)");
   d->add_option("--resume", o->resume, "Continue the job stored in this design file after its last iteration");
+  d->add_flag("--overwrite", o->overwrite, "Replace the --out file when it exists (refused without it)");
   AddOptimizerFlags(d, &o->optimizer);
   d->add_flag("-v,--verbose", o->verbose, "Print every solver iteration to stderr");
   d->add_flag("--evaluate", o->evaluate,
@@ -534,6 +579,13 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
   ds->add_option("file", *file, "Design file (HDF5) written by kgd design")->required();
   ds->add_flag("--json", *json, "Print as one JSON object");
   ds->callback([file, json, exit_code] { *exit_code = RunDesigns(*file, *json); });
+
+  auto files = std::make_shared<std::vector<std::string>>();
+  CLI::App* ck = app.add_subcommand("check", "Read every iteration of design files back whole (each chunk's checksum verified); "
+                                             "exit 5 names what is damaged and what can be kept");
+  ck->add_option("files", *files, "Design files (HDF5)")->required();
+  ck->add_flag("--json", *json, "Print as JSON");
+  ck->callback([files, json, exit_code] { *exit_code = RunCheck(*files, *json); });
 
   CLI::App* ev = app.add_subcommand("evaluate", "Simulate a stored design over every frame of the scene's motion, beside the fully reinforced garment");
   ev->add_option("file", *file, "Design file (HDF5)")->required();

@@ -20,8 +20,8 @@ echo "$machine"
 # the records without their times).
 rm -rf "$out/knee_flexion_sizes.scene" "$out"/two_*.h5
 "$kgd" scene export knee_flexion_sizes "$out/knee_flexion_sizes.scene" > /dev/null
-"$kgd" design knee_flexion_sizes --iterations 2 --out "$out/two_builtin.h5" --json > "$out/two_builtin.jsonl"
-"$kgd" design "$out/knee_flexion_sizes.scene/scene.json" --iterations 2 --out "$out/two_file.h5" --json > "$out/two_file.jsonl"
+"$kgd" design knee_flexion_sizes --iterations 2 --overwrite --out "$out/two_builtin.h5" --json > "$out/two_builtin.jsonl"
+"$kgd" design "$out/knee_flexion_sizes.scene/scene.json" --iterations 2 --overwrite --out "$out/two_file.h5" --json > "$out/two_file.jsonl"
 python3 - "$out/two_builtin.jsonl" "$out/two_file.jsonl" <<'PY'
 import json, sys
 def records(path):
@@ -40,7 +40,7 @@ runs=(knee_flexion knee_flexion_sizes knee_flexion_sizes_mean)
 pids=()
 for run in "${runs[@]}"; do
   rm -f "$out/$run.h5"
-  ("$kgd" design "$run" --out "$out/$run.h5" --json > "$out/$run.jsonl" &&
+  ("$kgd" design "$run" --overwrite --out "$out/$run.h5" --json > "$out/$run.jsonl" &&
      "$kgd" evaluate "$out/$run.h5" --on knee_flexion_sizes --json > "$out/$run.evaluate.json") &
   pids+=($!)
 done

@@ -20,7 +20,7 @@ printf "%-16s %10s %10s %8s %12s\n" scene predicted_s measured_s error iteration
 for s in "${scenes[@]}"; do
   predicted=$("$kgd" scenes | awk -v s="$s" -v c="$column" '$1 == s { split($6, p, "/"); print p[c] }')
   start=$(date +%s.%N)
-  "$kgd" design "$s" --quality "$quality" --out "$out/$s.h5" --json > "$out/$s.jsonl" || true
+  "$kgd" design "$s" --quality "$quality" --overwrite --out "$out/$s.h5" --json > "$out/$s.jsonl" || true
   end=$(date +%s.%N)
   iterations=$(tail -1 "$out/$s.jsonl" | python3 -c 'import json,sys; print(json.load(sys.stdin).get("iterations", "-"))')
   python3 - "$s" "$predicted" "$start" "$end" "$iterations" <<'PY'

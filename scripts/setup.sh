@@ -23,6 +23,7 @@ PACKAGES=(
   prometheus-cpp-dev       # the service's figures at /metrics (Prometheus text format)
   openssl                  # deploy/make-secrets.sh; the tests' throwaway certificate authority
   python3 python3-yaml     # tests/deploy/deploy_check.py reads the compose file and the manifests
+  fiu-utils                # the storage fault tests and `make faults`: libfiu's POSIX preload fails writes, fsyncs, opens
 )
 
 # --browser: also Debian's chromium, for the web page's browser tests (`make test` passes it).

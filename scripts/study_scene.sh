@@ -11,7 +11,7 @@ study_scene() {
   local kgd=$1 out=$2 name=$3 scene=$4 status=0 start
   shift 4
   start=$(date +%s.%N)
-  "$kgd" design "$scene" "$@" --out "$out/$name.h5" > "$out/$name.jsonl" || status=$?
+  "$kgd" design "$scene" "$@" --overwrite --out "$out/$name.h5" > "$out/$name.jsonl" || status=$?
   echo "$start $(date +%s.%N)" | awk '{ printf "%.3f\n", $2 - $1 }' > "$out/$name.wall_s"
   tail -n 1 "$out/$name.jsonl"
   "$kgd" designs "$out/$name.h5" > "$out/$name.table.txt"

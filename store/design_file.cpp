@@ -1,10 +1,12 @@
 #include "store/design_file.h"
 
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <hdf5.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -15,6 +17,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "store/file_lock.h"
+#include "core/util/fault_point.h"
 #include "store/hdf5.h"
 
 namespace kgd {
@@ -59,6 +63,17 @@ bool IsOptionalMetric(const std::string& name) {
 bool HasDataset(hid_t group, const char* name) { return H5Lexists(group, name, H5P_DEFAULT) > 0; }
 
 Status Fail(const std::string& path, const std::string& what) { return Status::Error(path + ": " + what); }
+
+// Bytes free to this process on the file system that holds `path`; -1 when it cannot be told.
+long long FreeBytes(const std::string& path) {
+  struct statvfs st;
+  if (statvfs(path.c_str(), &st) != 0) return -1;
+  return static_cast<long long>(st.f_bavail) * static_cast<long long>(st.f_frsize);
+}
+
+std::string StoredSoFar(int count) {
+  return count == 0 ? std::string("no iteration is stored") : "iterations 0.." + std::to_string(count - 1) + " are stored";
+}
 
 // Row-major copies of Eigen's column-major matrices.
 std::vector<double> RowMajor(const Positions& p) {
@@ -128,10 +143,12 @@ Result<BesoSettings> BesoSettingsFromJson(const std::string& text) {
 
 struct DesignFileWriter::Impl {
   std::string path;
+  FileLock lock;  // one writer per file, held while this writer lives
   Id file, iterations;
   int faces = 0, vertices = 0;
   size_t motions = 0;  // K: /iterations/motion_metrics rows hold K motions (0: no such dataset)
   bool motion_positions = false;  // /iterations/motion_positions holds motions 2..K's equilibria
+  std::string failed;             // why an earlier write failed: the file takes no more iterations
 };
 
 DesignFileWriter::~DesignFileWriter() = default;
@@ -227,9 +244,12 @@ Result<std::unique_ptr<DesignFileReader>> OpenDesignFileReader(const std::string
   H5Pset_metadata_read_attempts(fapl, 28);
   // SWMR read sees the last flushed iteration of a file being written, or of one whose writer was
   // killed (a plain open refuses such a file); files written before SWMR open plainly.
+  ClearHdf5Error();
   r.file = Id(H5Fopen(path.c_str(), H5F_ACC_RDONLY | H5F_ACC_SWMR_READ, fapl), H5Fclose);
   if (!r.file.ok()) r.file = Id(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl), H5Fclose);
-  if (!r.file.ok()) return Fail(path, "cannot open the HDF5 file (damaged?)");
+  if (!r.file.ok())
+    return Fail(path, "cannot open the HDF5 file: " + LastHdf5Error() +
+                          " (damaged, or cut short by a full disk: `kgd design --resume FILE` repairs a file its writer could not finish)");
   std::string format;
   int version = 0;
   if (!ReadStringAttribute(r.file, "format", &format) || format != kFormat)
@@ -418,8 +438,8 @@ Status ReadMetricRows(const DesignFileReader& r, hsize_t first, hsize_t rows, Be
     }
   }
   if (!ok)
-    return Fail(path, rows == 1 ? "cannot read the metrics of iteration row " + std::to_string(first)
-                                : "cannot read the metrics of iteration rows " + std::to_string(first) + ".." + std::to_string(first + rows - 1));
+    return Fail(path, (rows == 1 ? "iteration " + std::to_string(first) : "iterations " + std::to_string(first) + ".." + std::to_string(first + rows - 1)) +
+                          (rows == 1 ? " is" : " are") + " damaged: their metrics do not read back (" + LastHdf5Error() + ")");
   for (hsize_t i = 0; i < rows; ++i)
     if (it[i].iteration != static_cast<int>(first + i))
       return Fail(path, "/iterations/iteration row " + std::to_string(first + i) + " holds " + std::to_string(it[i].iteration));
@@ -436,10 +456,13 @@ Status ReadIteration(const DesignFileReader& r, hsize_t i, bool arrays, BesoIter
   std::vector<double> x(static_cast<size_t>(nv) * 3);
   it->energy_density_Pa.resize(nf);
   it->sensitivity.resize(nf);
-  const bool ok = ReadRow(its, "design", H5T_NATIVE_UINT8, i, it->design.data()) && ReadRow(its, "positions", H5T_NATIVE_DOUBLE, i, x.data()) &&
-       ReadRow(its, "energy_density_Pa", H5T_NATIVE_DOUBLE, i, it->energy_density_Pa.data()) &&
-       ReadRow(its, "sensitivity", H5T_NATIVE_DOUBLE, i, it->sensitivity.data());
-  if (!ok) return Fail(r.path, "cannot read the arrays of iteration " + std::to_string(i));
+  const std::pair<const char*, bool> read[] = {
+      {"design", ReadRow(its, "design", H5T_NATIVE_UINT8, i, it->design.data())},
+      {"positions", ReadRow(its, "positions", H5T_NATIVE_DOUBLE, i, x.data())},
+      {"energy_density_Pa", ReadRow(its, "energy_density_Pa", H5T_NATIVE_DOUBLE, i, it->energy_density_Pa.data())},
+      {"sensitivity", ReadRow(its, "sensitivity", H5T_NATIVE_DOUBLE, i, it->sensitivity.data())}};
+  for (const auto& [name, ok] : read)
+    if (!ok) return Fail(r.path, "iteration " + std::to_string(i) + " is damaged: /iterations/" + name + " does not read back (" + LastHdf5Error() + ")");
   it->positions = FromRowMajor(x);
   if (i == 0) it->sensitivity.resize(0);
   it->motion_positions.clear();
@@ -447,7 +470,7 @@ Status ReadIteration(const DesignFileReader& r, hsize_t i, bool arrays, BesoIter
     const size_t others = r.header.motions.size() - 1;
     std::vector<double> all(others * nv * 3);
     if (!ReadRow(its, kMotionPositions, H5T_NATIVE_DOUBLE, i, all.data()))
-      return Fail(r.path, "cannot read the other motions' positions of iteration " + std::to_string(i));
+      return Fail(r.path, "iteration " + std::to_string(i) + " is damaged: /iterations/" + kMotionPositions + " does not read back (" + LastHdf5Error() + ")");
     if (std::all_of(all.begin(), all.end(), [](double v) { return std::isfinite(v); }))
       for (size_t k = 0; k < others; ++k)
         it->motion_positions.push_back(FromRowMajor(std::vector<double>(all.begin() + k * nv * 3, all.begin() + (k + 1) * nv * 3)));
@@ -459,6 +482,7 @@ Status ReadIteration(const DesignFileReader& r, hsize_t i, bool arrays, BesoIter
 
 Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::string& path, const DesignFileHeader& h) {
   SilenceHdf5();
+  ClearHdf5Error();
   const hsize_t nv = h.garment.vertices.rows(), nf = h.garment.faces.rows();
   if (h.initial.rows() != static_cast<Eigen::Index>(nv) || h.rest_area_m2.size() != static_cast<Eigen::Index>(nf))
     return Fail(path, "design file header: garment, initial positions and areas differ in size");
@@ -468,9 +492,13 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
   m.path = path;
   m.faces = static_cast<int>(nf);
   m.vertices = static_cast<int>(nv);
+  // Locked before it is truncated: a file another writer has open is refused, not emptied under it.
+  Result<FileLock> lock = FileLock::Acquire(path, /*create=*/true);
+  if (!lock.ok()) return lock.status();
+  m.lock = std::move(lock).value();
   Id fapl = WriterAccess();
   m.file = Id(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl), H5Fclose);
-  if (!m.file.ok()) return Fail(path, "cannot create the HDF5 file (does the folder exist, is it writable?)");
+  if (!m.file.ok()) return Fail(path, "cannot create the HDF5 file: " + LastHdf5Error());
   bool ok = WriteStringAttribute(m.file, "format", kFormat) && WriteIntAttribute(m.file, "format_version", kFormatVersion);
   {
     Id job(H5Gcreate2(m.file, "job", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
@@ -523,13 +551,38 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
   if (h.motions.size() > 1) ok = ok && CreateGrowing(m.iterations, kMotionPositions, H5T_IEEE_F64LE, {h.motions.size() - 1, nv, 3}, Storage::kRaw);
   m.motions = h.motions.size();
   m.motion_positions = h.motions.size() > 1;
-  if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot write the design file (disk full?)");
+  if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot write the design file: " + LastHdf5Error());
   if (H5Fstart_swmr_write(m.file) < 0) return Fail(path, "cannot start single-writer/multiple-reader mode");
   return w;
 }
 
+// A file whose writer could not grow it (a file-size limit, a failed write at its end) is shorter than
+// the end its superblock records, and HDF5 refuses to open it. Nothing was written past the real end,
+// so the file is extended to the recorded end with zeros (a hole), and the iterations in it read again.
+static Status ExtendToRecordedEnd(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char sb[36] = {};
+  in.read(reinterpret_cast<char*>(sb), sizeof sb);
+  // Superblock versions 2 and 3 (what writers of this format make): signature, version, offset size 8,
+  // length size 8, flags, base address, extension address, end-of-file address, root address, checksum.
+  if (!in || std::memcmp(sb, "\x89HDF\r\n\x1a\n", 8) != 0 || (sb[8] != 2 && sb[8] != 3) || sb[9] != 8) return Status::Ok();
+  uint64_t end = 0;
+  for (int b = 7; b >= 0; --b) end = end << 8 | sb[28 + b];
+  std::error_code ec;
+  const uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec || end <= size || end > size + (uintmax_t{1} << 32)) return Status::Ok();
+  if (truncate(path.c_str(), static_cast<off_t>(end)) != 0)
+    return Fail(path, "is shorter than its recorded end and cannot be extended: " + std::string(std::strerror(errno)));
+  return Status::Ok();
+}
+
 Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::string& path, int keep) {
   SilenceHdf5();
+  if (!std::filesystem::is_regular_file(path)) return Fail(path, "no such file");
+  KGD_RETURN_IF_ERROR(ExtendToRecordedEnd(path));
+  // Held through the repair and the appends; a rebuilt file carries its own (Salvage).
+  Result<FileLock> lock = FileLock::Acquire(path);
+  if (!lock.ok()) return lock.status();
   {
     // A writer killed in SWMR mode leaves the superblock marked "open for write", which a plain open
     // refuses. Such a file is rebuilt (Salvage) rather than appended to in place.
@@ -582,8 +635,10 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
   m.faces = static_cast<int>(existing->header.garment.faces.rows());
   m.vertices = static_cast<int>(existing->header.garment.vertices.rows());
   m.motions = existing->header.motions.size();
+  m.lock = std::move(lock).value();
+  ClearHdf5Error();
   m.file = Id(H5Fopen(path.c_str(), H5F_ACC_RDWR, WriterAccess()), H5Fclose);
-  if (!m.file.ok()) return Fail(path, "cannot open the design file for writing");
+  if (!m.file.ok()) return Fail(path, "cannot open the design file for writing: " + LastHdf5Error());
   m.iterations = Id(H5Gopen2(m.file, "iterations", H5P_DEFAULT), H5Gclose);
   // The commit marker first, so a crash in between leaves a file that reads as `keep` iterations.
   bool ok = m.iterations.ok() && Truncate(m.iterations, "iteration", keep);
@@ -602,7 +657,7 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
   // Files of before the other motions' positions were stored go on without them.
   m.motion_positions = ok && m.motions > 1 && HasDataset(m.iterations, kMotionPositions);
   if (m.motion_positions) ok = Truncate(m.iterations, kMotionPositions, keep);
-  if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot truncate the design file");
+  if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot truncate the design file: " + LastHdf5Error());
   // Files of format_version 1 written before SWMR (superblock < 3) cannot enter SWMR mode; they are
   // appended to as before.
   H5Fstart_swmr_write(m.file);
@@ -648,17 +703,21 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Salvage(const Design
 
 Status DesignFileWriter::SetSettings(const BesoSettings& settings) {
   Impl& m = *impl_;
+  SilenceHdf5();
+  ClearHdf5Error();
   Id job(H5Gopen2(m.file, "job", H5P_DEFAULT), H5Gclose);
   if (!job.ok()) return Fail(m.path, "/job cannot be opened");
   if (H5Aexists(job, "settings_next") > 0 && H5Adelete(job, "settings_next") < 0) return Fail(m.path, "/job settings_next cannot be removed");
   if (!WriteStringAttribute(job, "settings_next", BesoSettingsToJson(settings)) || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0 ||
       H5Adelete(job, "settings") < 0 || H5Arename(job, "settings_next", "settings") < 0 || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0)
-    return Fail(m.path, "/job settings cannot be replaced");
+    return Fail(m.path, "/job settings cannot be replaced: " + LastHdf5Error());
   return Status::Ok();
 }
 
 Status DesignFileWriter::Append(const BesoIteration& it) {
   Impl& m = *impl_;
+  SilenceHdf5();
+  ClearHdf5Error();
   if (it.iteration != count_)
     return Fail(m.path, "iteration " + std::to_string(it.iteration) + " appended after " + std::to_string(count_) + " stored");
   if (static_cast<int>(it.design.size()) != m.faces || it.positions.rows() != m.vertices || it.energy_density_Pa.size() != m.faces ||
@@ -671,7 +730,18 @@ Status DesignFileWriter::Append(const BesoIteration& it) {
                                        std::any_of(it.motion_positions.begin(), it.motion_positions.end(),
                                                    [&](const Positions& p) { return p.rows() != m.vertices; })))
     return Fail(m.path, "iteration " + std::to_string(it.iteration) + ": the other motions' positions do not match the garment and motions");
+  if (!m.failed.empty()) return Fail(m.path, "an earlier write failed (" + m.failed + "); reopen the file to go on");
+  // A full disk is met before a write where it can be: a chunk that fails to write may take the rows it
+  // shared with earlier iterations with it (HDF5 is not crash-safe). Room for twice the iteration's
+  // arrays and 1 MiB of metadata is asked.
+  const long long needs = 2 * (static_cast<long long>(m.faces) * 25 + static_cast<long long>(m.vertices) * 24 * std::max<long long>(m.motions, 1)) + (1 << 20);
+  if (const long long free = FreeBytes(m.path); free >= 0 && free < needs) {
+    m.failed = "No space left on device (ENOSPC)";
+    return Fail(m.path, "cannot write iteration " + std::to_string(it.iteration) + ": No space left on device (ENOSPC): " + std::to_string(free) +
+                            " bytes free on its file system, an iteration needs about " + std::to_string(needs) + "; " + StoredSoFar(count_));
+  }
   const hsize_t row = count_;
+  FaultPoint("design_file.append.begin", it.iteration);
   bool ok = true;
   if (m.motions > 0) {
     std::vector<double> v;
@@ -708,12 +778,47 @@ Status DesignFileWriter::Append(const BesoIteration& it) {
   // Last, once everything else is on disk: the commit marker. (Within one flush HDF5 may write the
   // marker's extent before another dataset's chunk; a writer killed in between left a file whose
   // marker promised a row the design did not have.)
+  FaultPoint("design_file.append.after_arrays", it.iteration);
   ok = ok && H5Fflush(m.file, H5F_SCOPE_GLOBAL) >= 0;
+  FaultPoint("design_file.append.after_flush", it.iteration);
   ok = ok && WriteRow(m.iterations, "iteration", H5T_NATIVE_INT, row, &it.iteration);
-  if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0)
-    return Fail(m.path, "cannot write iteration " + std::to_string(it.iteration) + " (disk full?)");
+  FaultPoint("design_file.append.after_marker", it.iteration);
+  if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) {
+    m.failed = LastHdf5Error();
+    // The commit marker back to the iterations stored, so that the file reads as them (best effort:
+    // on a failing disk this may fail too, and a reopen then rebuilds the file from what reads back).
+    if (Truncate(m.iterations, "iteration", count_)) H5Fflush(m.file, H5F_SCOPE_GLOBAL);
+    return Fail(m.path, "cannot write iteration " + std::to_string(it.iteration) + ": " + m.failed + "; " + StoredSoFar(count_));
+  }
   ++count_;
+  FaultPoint("design_file.append.end", it.iteration);
   return Status::Ok();
+}
+
+Result<DesignFileCheck> CheckDesignFile(const std::string& path) {
+  Result<std::unique_ptr<DesignFileReader>> r = OpenDesignFileReader(path, /*salvage=*/true);
+  if (!r.ok()) return r.status();
+  const DesignFileReader& reader = **r;
+  DesignFileCheck check;
+  check.iterations = static_cast<int>(reader.marker_rows);
+  if (reader.rows < reader.marker_rows) {
+    check.first_damage = Fail(path, "iteration " + std::to_string(reader.rows) + " is incomplete (a writer killed mid-write?)").message();
+    for (hsize_t i = reader.rows; i < reader.marker_rows; ++i) check.damaged.push_back(static_cast<int>(i));
+  }
+  bool intact = true;
+  for (hsize_t i = 0; i < reader.rows; ++i) {
+    BesoIteration it;
+    const Status st = ReadIteration(reader, i, /*arrays=*/true, &it);
+    if (st.ok()) {
+      if (intact) check.intact = static_cast<int>(i) + 1;
+      continue;
+    }
+    intact = false;
+    if (check.damaged.empty() || check.damaged.front() > static_cast<int>(i)) check.first_damage = st.message();
+    check.damaged.push_back(static_cast<int>(i));
+  }
+  std::sort(check.damaged.begin(), check.damaged.end());
+  return check;
 }
 
 Result<DesignFile> ReadDesignFile(const std::string& path, const DesignFileReadOptions& options) {

@@ -138,6 +138,20 @@ struct DesignFileReadOptions {
 // version, inconsistent sizes).
 Result<DesignFile> ReadDesignFile(const std::string& path, const DesignFileReadOptions& options = {});
 
+// What every stored iteration of a design file reads back as: each metric, design and array, with the
+// checksum of every chunk verified (a flipped bit fails it).
+struct DesignFileCheck {
+  int iterations = 0;         // complete iterations the file records
+  int intact = 0;             // the leading iterations that read back whole: what a resume keeps
+  std::vector<int> damaged;   // the iterations that do not (ascending)
+  std::string first_damage;   // what is wrong with the first of them (names the file, iteration, dataset)
+  bool ok() const { return damaged.empty(); }
+};
+
+// Reads every iteration of `path` whole. An error when not even the file's header reads (not a design
+// file, or damaged there); otherwise what is intact and what is damaged.
+Result<DesignFileCheck> CheckDesignFile(const std::string& path);
+
 // BESO settings as the JSON stored in /job (also used by the CLI for --json output).
 std::string BesoSettingsToJson(const BesoSettings& settings);
 // Unknown keys and invalid values are refused; a missing key takes the default, except

@@ -1,16 +1,72 @@
 #include "store/hdf5.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
+#include <string>
 
 namespace kgd::hdf5 {
+namespace {
+
+// The last failure of this thread's HDF5 calls. One with a system error (errno) is kept over later
+// ones without (the closes that follow a failed write fail too, for HDF5's own reasons).
+thread_local std::string last_error;
+thread_local int last_errno = 0;
+
+herr_t RecordEntry(unsigned n, const H5E_error2_t* e, void* data) {
+  auto* found = static_cast<std::pair<std::string, int>*>(data);
+  if (!e->desc) return 0;
+  const std::string desc = e->desc;
+  // The POSIX drivers write "..., errno = 28, error message = 'No space left on device', ...".
+  if (const size_t at = desc.find("errno = "); at != std::string::npos && found->second == 0) {
+    const int number = std::atoi(desc.c_str() + at + 8);
+    if (number > 0) {
+      const char* name = strerrorname_np(number);
+      found->first = std::string(std::strerror(number)) + " (" + (name ? name : "errno " + std::to_string(number)) + ")";
+      found->second = number;
+    }
+  }
+  if (found->first.empty() && n == 0) found->first = desc;  // the innermost entry: where it failed
+  return 0;
+}
+
+herr_t RecordFailure(hid_t stack, void*) {
+  std::pair<std::string, int> found;
+  H5Ewalk2(stack, H5E_WALK_UPWARD, RecordEntry, &found);
+  if (found.first.empty()) return 0;
+  if (found.second != 0 || last_errno == 0) {
+    last_error = found.first;
+    last_errno = found.second;
+  }
+  return 0;
+}
+
+}  // namespace
 
 void SilenceHdf5() {
-  static bool done = [] {
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  // No clean-up at exit: HDF5 1.10 closes files still open there, and one whose close failed before (a
+  // full disk) crashes it. Every writer closes its file itself.
+  static bool no_atexit = [] { return H5dont_atexit() >= 0; }();
+  (void)no_atexit;
+  thread_local bool done = [] {
+    H5Eset_auto2(H5E_DEFAULT, RecordFailure, nullptr);
     return true;
   }();
   (void)done;
+}
+
+std::string LastHdf5Error() {
+  std::string e = last_error.empty() ? "an HDF5 error" : last_error;
+  last_error.clear();
+  last_errno = 0;
+  return e;
+}
+
+int LastHdf5Errno() { return last_errno; }
+
+void ClearHdf5Error() {
+  last_error.clear();
+  last_errno = 0;
 }
 
 bool WriteStringAttribute(hid_t obj, const char* name, const std::string& value) {
@@ -22,7 +78,7 @@ bool WriteStringAttribute(hid_t obj, const char* name, const std::string& value)
   Id attr(H5Acreate2(obj, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
   if (!attr.ok()) return false;
   const std::string padded = value.empty() ? std::string(1, '\0') : value;
-  return H5Awrite(attr, type, padded.data()) >= 0;
+  return H5Awrite(attr, type, padded.data()) >= 0 && attr.Close();
 }
 
 bool ReadStringAttribute(hid_t obj, const char* name, std::string* value) {
@@ -42,7 +98,7 @@ bool ReadStringAttribute(hid_t obj, const char* name, std::string* value) {
 bool WriteIntAttribute(hid_t obj, const char* name, int value) {
   Id space(H5Screate(H5S_SCALAR), H5Sclose);
   Id attr(H5Acreate2(obj, name, H5T_STD_I32LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
-  return attr.ok() && H5Awrite(attr, H5T_NATIVE_INT, &value) >= 0;
+  return attr.ok() && H5Awrite(attr, H5T_NATIVE_INT, &value) >= 0 && attr.Close();
 }
 
 bool ReadIntAttribute(hid_t obj, const char* name, int* value) {
@@ -63,7 +119,7 @@ bool WriteFixed(hid_t group, const char* name, hid_t file_type, hid_t mem_type, 
   }
   Id set(H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, plist, H5P_DEFAULT), H5Dclose);
   if (!set.ok()) return false;
-  return empty || H5Dwrite(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0;
+  return (empty || H5Dwrite(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0) && set.Close();
 }
 
 // The current extent of an open dataset.
@@ -108,7 +164,7 @@ bool CreateGrowing(hid_t group, const char* name, hid_t file_type, const std::ve
   // treated as damaged (Reopen rebuilds the file without it).
   H5Pset_fletcher32(plist);
   Id set(H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, plist, H5P_DEFAULT), H5Dclose);
-  return set.ok();
+  return set.ok() && set.Close();
 }
 
 namespace {
@@ -133,7 +189,7 @@ bool WriteRow(hid_t group, const char* name, hid_t mem_type, hsize_t index, cons
   if (H5Dset_extent(set, dims.data()) < 0) return false;
   Id file_space(H5Dget_space(set), H5Sclose);
   Id mem_space = SelectRows(file_space, index);
-  return H5Dwrite(set, mem_type, mem_space, file_space, H5P_DEFAULT, data) >= 0;
+  return H5Dwrite(set, mem_type, mem_space, file_space, H5P_DEFAULT, data) >= 0 && set.Close();
 }
 
 bool ReadRow(hid_t group, const char* name, hid_t mem_type, hsize_t index, void* data) { return ReadRows(group, name, mem_type, index, 1, data); }
@@ -154,7 +210,7 @@ bool Truncate(hid_t group, const char* name, hsize_t rows) {
   std::vector<hsize_t> dims = Dims(set);
   if (dims[0] <= rows) return true;
   dims[0] = rows;
-  return H5Dset_extent(set, dims.data()) >= 0;
+  return H5Dset_extent(set, dims.data()) >= 0 && set.Close();
 }
 
 }  // namespace kgd::hdf5

@@ -32,12 +32,31 @@ struct Id {
     if (id >= 0 && close) close(id);
     id = H5I_INVALID_HID;
   }
+  // Closes now and says whether that worked. A writer must: closing a dataset writes its cached chunks,
+  // and a chunk that fails to write there (a full disk) is dropped while the write and a later flush
+  // report success.
+  bool Close() {
+    const bool ok = id < 0 || !close || close(id) >= 0;
+    id = H5I_INVALID_HID;
+    return ok;
+  }
   bool ok() const { return id >= 0; }
   operator hid_t() const { return id; }
 };
 
-// Turns off HDF5's automatic error printing, once per process.
+// Turns off HDF5's automatic error printing (once per thread: HDF5 keeps error stacks per thread) and
+// records each failure for LastHdf5Error instead.
 void SilenceHdf5();
+
+// What the last failed HDF5 call of this thread reported, for an error message: the system's error
+// where HDF5 met one ("No space left on device (ENOSPC)", "Input/output error (EIO)"), else HDF5's own
+// description; "an HDF5 error" when none was recorded. Reading it clears the record.
+std::string LastHdf5Error();
+// The system error number behind the last failed HDF5 call of this thread (ENOSPC, EIO, ...), 0 when
+// there was none; LastHdf5Error clears it too.
+int LastHdf5Errno();
+// Forgets the recorded failure: called before an operation whose failure LastHdf5Error will explain.
+void ClearHdf5Error();
 
 // Fixed-length UTF-8 string and 32-bit integer attributes.
 bool WriteStringAttribute(hid_t obj, const char* name, const std::string& value);
