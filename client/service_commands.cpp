@@ -78,7 +78,9 @@ std::string ReachHint(const std::string& error) {
 int FailRpc(const char* command, const std::string& server, const grpc::Status& st) {
   const bool users = st.error_code() == grpc::StatusCode::NOT_FOUND || st.error_code() == grpc::StatusCode::INVALID_ARGUMENT ||
                      st.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED;
-  if (st.error_code() == grpc::StatusCode::UNAVAILABLE || st.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED)
+  // The server's own refusal (it takes no new jobs now: its disk is full, it drains) reached the user.
+  const bool refused = st.error_message().rfind("the server takes no new jobs now", 0) == 0;
+  if (!refused && (st.error_code() == grpc::StatusCode::UNAVAILABLE || st.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED))
     std::fprintf(stderr, "kgd %s: cannot reach the design server at %s (%s); %s\n", command, server.c_str(), st.error_message().c_str(),
                  ReachHint(st.error_message()).c_str());
   else
@@ -107,6 +109,7 @@ nlohmann::ordered_json JobJson(const v1::Job& job) {
   if (!job.worker().empty()) j["worker"] = job.worker();
   if (!job.kernels().empty()) j["kernels"] = job.kernels();
   if (job.cancel_requested()) j["cancel_requested"] = true;
+  if (!job.paused().empty()) j["paused"] = job.paused();
   if (!job.data_file().empty()) j["data_file"] = job.data_file();
   return j;
 }
@@ -169,13 +172,20 @@ int RunWatch(const WatchOptions& o) {
     while (reader->Read(&ev)) {
       last_contact = std::chrono::steady_clock::now();
       if (ev.has_job()) {
-        const bool changed = !have_job || ev.job().state() != job.state();
+        const bool changed = !have_job || ev.job().state() != job.state() || ev.job().paused() != job.paused();
+        const bool was_paused = have_job && !job.paused().empty();
         job = ev.job();
         have_job = true;
         if (changed && !bar) {
           nlohmann::ordered_json j{{"event", "state"}, {"job", job.id()}, {"state", StateName(job.state())}};
           if (!job.failure().empty()) j["failure"] = job.failure();
+          if (!job.paused().empty()) j["paused"] = job.paused();
           std::printf("%s\n", j.dump().c_str());
+        } else if (changed && bar && !job.paused().empty()) {
+          std::printf("\njob %lld paused: %s; it continues by itself when the server can store again\n", static_cast<long long>(job.id()),
+                      job.paused().c_str());
+        } else if (changed && bar && was_paused) {
+          std::printf("\njob %lld continues\n", static_cast<long long>(job.id()));
         }
       } else if (ev.has_iteration()) {
         const v1::IterationMetrics& m = ev.iteration().metrics();
@@ -339,6 +349,8 @@ int RunJob(const std::string& server, int64_t id, bool json) {
   std::printf("job %lld: %s, scene %s%s%s\n", static_cast<long long>(job.id()), StateName(job.state()).c_str(), JobSceneName(job.spec()).c_str(),
               job.spec().label().empty() ? "" : ", label ", job.spec().label().c_str());
   std::printf("attempts %d%s%s\n", job.attempts(), job.worker().empty() ? "" : ", worker ", job.worker().c_str());
+  if (!job.paused().empty())
+    std::printf("paused: %s; it continues by itself, losing nothing, when the server can store again\n", job.paused().c_str());
   // A queued job with iterations resumes only at their kernel level (server/job_store.h LeaseNext).
   if (!job.kernels().empty()) {
     std::string line = "kernels " + job.kernels();

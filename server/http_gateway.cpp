@@ -343,7 +343,7 @@ struct HttpGateway::Impl {
   }
 
   // One function per resource; each registers its routes (the table in http_gateway.h).
-  void ServiceRoutes();     // /metrics, /v1/scenes
+  void ServiceRoutes();     // /metrics, /healthz, /readyz, /v1/scenes
   void JobRoutes();         // /v1/jobs, /v1/jobs/{id}, :cancel, :watch
   void IterationRoutes();   // /v1/jobs/{id}/iterations/{n}[/positions.f32|energy.f32|design.u8|design.ply]
   void CutFileRoutes();     // /v1/jobs/{id}/iterations/{n}/cut/...
@@ -362,6 +362,14 @@ void HttpGateway::Impl::ServiceRoutes() {
   httplib::Server& http = *server;
   http.Get("/metrics", [this](const Request&, Response& res) {
     res.set_content(service->MetricsText(), "text/plain; version=0.0.4; charset=utf-8");
+  });
+  // Probes, without a token: liveness (the process answers) and readiness (it can take work:
+  // JobService::Ready; 503 with the reason while it cannot store, or drains).
+  http.Get("/healthz", [](const Request&, Response& res) { res.set_content("ok\n", "text/plain; charset=utf-8"); });
+  http.Get("/readyz", [this](const Request&, Response& res) {
+    const ServiceStatus st = service->Ready();
+    res.status = st.ok() ? 200 : 503;
+    res.set_content(st.ok() ? std::string("ready\n") : "not ready: " + st.message + "\n", "text/plain; charset=utf-8");
   });
   http.Get("/v1/scenes", [this](const Request&, Response& res) {
     v1::ListScenesResponse out;

@@ -16,6 +16,8 @@
 #include <sstream>
 #include <thread>
 
+#include <sys/statvfs.h>
+
 #include "core/scene/builtin_scenes.h"
 #include "job/cost_calibration.h"
 #include "job/fabrication_export.h"
@@ -34,6 +36,16 @@ double Now() { return std::chrono::duration<double>(std::chrono::system_clock::n
 
 ServiceStatus Error(ServiceCode code, std::string message) { return ServiceStatus{code, std::move(message)}; }
 ServiceStatus Internal(const Status& st) { return Error(ServiceCode::kInternal, st.message()); }
+
+// Bytes free to this process on the file system that holds `path`; -1 when it cannot be told.
+long long FreeBytes(const std::string& path) {
+  struct statvfs st;
+  if (statvfs(path.c_str(), &st) != 0) return -1;
+  return static_cast<long long>(st.f_bavail) * static_cast<long long>(st.f_frsize);
+}
+
+// Below this much free space in the data folder the service is not ready and takes no new jobs.
+constexpr long long kReadyFreeBytes = 2 << 20;
 
 }  // namespace
 
@@ -145,6 +157,8 @@ struct JobService::Impl {
   struct OpenFile {
     std::string lease_id;
     std::unique_ptr<DesignFileWriter> writer;
+    // A write failed: the writer is reopened at the acknowledged iterations before the next append.
+    bool reopen = false;
   };
   std::map<int64_t, OpenFile> files;
   ServiceMetrics metrics;
@@ -235,6 +249,78 @@ struct JobService::Impl {
   std::map<std::pair<int64_t, int>, std::shared_ptr<const v1::IterationRecord>> recent;
   static constexpr size_t kRecentLimit = 512;
 
+  // Jobs waiting because their work cannot be stored (Job.paused), with the reason; when storage last
+  // failed (leases are not expired within a lease duration of it: their renewals may have failed too).
+  mutable std::mutex storage_mu;
+  std::map<int64_t, std::string> paused;
+  double storage_failed_s = -1e300;
+
+  // The reason a storage failure gives users, or "" when `st` is none: a full disk (ENOSPC, EDQUOT,
+  // SQLITE_FULL, the design file's refusal for want of space) or a disk that fails writes (EIO,
+  // SQLITE_IOERR). Both pass by themselves once space is freed or the disk is back.
+  std::string StorageFault(const Status& st) const {
+    const std::string& e = st.message();
+    auto has = [&e](const char* what) { return e.find(what) != std::string::npos; };
+    if (has("(ENOSPC)") || has("(EDQUOT)") || has("database or disk is full") || has("No space left on device"))
+      return "the server's disk is full (data folder " + options.data_dir + ", " + std::to_string(FreeBytes(options.data_dir)) + " bytes free)";
+    if (has("(EIO)") || has("disk I/O error") || has("Input/output error"))
+      return "the server cannot write to its data folder " + options.data_dir + " (an I/O error)";
+    return "";
+  }
+  // Records a storage failure (no job paused by it).
+  void StorageFailed() {
+    std::lock_guard lock(storage_mu);
+    storage_failed_s = Now();
+  }
+  bool StorageFailedRecently() const {
+    std::lock_guard lock(storage_mu);
+    return Now() - storage_failed_s < options.lease_duration_s;
+  }
+  std::string PausedReason(int64_t id) const {
+    std::lock_guard lock(storage_mu);
+    auto it = paused.find(id);
+    return it == paused.end() ? std::string() : it->second;
+  }
+  void Pause(int64_t id, const std::string& reason, const Status& error) {
+    bool first = false;
+    {
+      std::lock_guard lock(storage_mu);
+      storage_failed_s = Now();
+      first = !paused.count(id);
+      paused[id] = reason;
+    }
+    if (!first) return;
+    Log("job " + std::to_string(id) + " paused: " + reason + " (" + error.message() + "); it continues when the server can store again");
+    Notify();
+  }
+  void Unpause(int64_t id, bool stored) {
+    {
+      std::lock_guard lock(storage_mu);
+      if (!paused.erase(id)) return;
+    }
+    if (stored) Log("job " + std::to_string(id) + " continues: the server stores again");
+    Notify();
+  }
+  // Runs `store_it` until it succeeds or fails other than by storage (that error is returned). While
+  // storage fails, job `id` is paused (Job.paused), its lease kept, and `store_it` tried again every
+  // half second until `give_up` (the storage error is then returned).
+  Status StoreOrPause(int64_t id, const std::function<Status()>& store_it, const std::function<bool()>& give_up) {
+    for (;;) {
+      Status st = store_it();
+      const std::string reason = st.ok() ? std::string() : StorageFault(st);
+      if (reason.empty()) {
+        Unpause(id, st.ok());
+        return st;
+      }
+      Pause(id, reason, st);
+      if (stopping || give_up()) {
+        Unpause(id, false);
+        return st;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    }
+  }
+
   std::atomic<bool> draining{false}, stopping{false};
   std::atomic<int> active_streams{0};
   std::thread expiry;
@@ -270,6 +356,7 @@ struct JobService::Impl {
   // (megabytes of meshes per job in every listing and watch event; workers get them with their lease).
   void Decorate(v1::Job* job) const {
     if (job->iterations() > 0 || fs::exists(FilePath(job->id()))) job->set_data_file(FilePath(job->id()));
+    if (job->state() == v1::RUNNING) job->set_paused(PausedReason(job->id()));
     if (job->spec().has_scene_files()) job->mutable_spec()->mutable_scene_files()->clear_files();
   }
 
@@ -335,6 +422,19 @@ struct JobService::Impl {
     auto it = files.find(job_id);
     if (it == files.end() || it->second.lease_id != lease_id)
       return Status::Error("job " + std::to_string(job_id) + ": iteration reported before start");
+    if (it->second.reopen || !it->second.writer) {
+      // After a failed write: the file as the job store acknowledges it (an iteration in HDF5 whose
+      // SQLite commit failed is dropped), then the append again.
+      it->second.writer.reset();
+      const std::optional<JobProgress> progress = store->Progress(job_id);
+      if (!progress) return Status::Error("job " + std::to_string(job_id) + " vanished");
+      Result<std::unique_ptr<DesignFileWriter>> reopened = DesignFileWriter::Reopen(FilePath(job_id), progress->iterations);
+      if (!reopened.ok()) return reopened.status();
+      if ((*reopened)->num_iterations() < progress->iterations)
+        return Status::Error(FilePath(job_id) + ": " + (*reopened)->repair_note() + "; the job needs a server restart to be trimmed");
+      it->second.writer = std::move(reopened).value();
+      it->second.reopen = false;
+    }
     DesignFileWriter& w = *it->second.writer;
     if (record.metrics().iteration() != w.num_iterations())
       return Status::Error("job " + std::to_string(job_id) + ": iteration " + std::to_string(record.metrics().iteration()) + " reported after " +
@@ -347,9 +447,15 @@ struct JobService::Impl {
     Result<BesoIteration> it_rec = RecordFromProto(record, w.faces(), w.vertices());
     if (!it_rec.ok()) return it_rec.status();
     const auto t0 = std::chrono::steady_clock::now();
-    KGD_RETURN_IF_ERROR(w.Append(*it_rec));
+    if (Status st = w.Append(*it_rec); !st.ok()) {
+      it->second.reopen = true;
+      return st;
+    }
     const auto t1 = std::chrono::steady_clock::now();
-    KGD_RETURN_IF_ERROR(store->AppendIteration(job_id, lease_id, record.metrics(), record.design()));
+    if (Status st = store->AppendIteration(job_id, lease_id, record.metrics(), record.design()); !st.ok()) {
+      it->second.reopen = true;
+      return st;
+    }
     const auto t2 = std::chrono::steady_clock::now();
     metrics.IterationStored(record.metrics().total_s(), record.metrics().report_time_s(), std::chrono::duration<double>(t1 - t0).count(),
                             std::chrono::duration<double>(t2 - t1).count());
@@ -440,6 +546,8 @@ struct JobService::Impl {
     while (!stopping) {
       seen = WaitEvent(seen, std::min(0.5, options.lease_duration_s / 4));
       std::vector<int64_t> expired;
+      // Renewals fail with the store: no lease expires within a lease duration of a storage failure.
+      if (StorageFailedRecently()) continue;
       {
         std::lock_guard lock(commit_mu);
         expired = store->ExpireLeases(Now());
@@ -484,7 +592,7 @@ Result<Caller> JobService::AuthenticateToken(const std::string& token) const { r
 ServiceStatus JobService::CreateJob(const Caller& caller, const v1::CreateJobRequest& req, v1::Job* out) {
   Impl& m = *impl_;
   if (caller.role == Role::kWorker) return Error(ServiceCode::kPermissionDenied, "a worker's token cannot create jobs");
-  if (m.draining || m.stopping) return Error(ServiceCode::kUnavailable, "the server is shutting down");
+  if (ServiceStatus st = Ready(); !st.ok()) return Error(st.code, "the server takes no new jobs now: " + st.message);
   if (ServiceStatus st = CheckLimits(m.options.limits, req.spec()); !st.ok()) return st;
   if (Status st = ValidateJobSpec(req.spec()); !st.ok()) return Error(ServiceCode::kInvalidArgument, st.message());
   const ServiceLimits& limits = m.options.limits;
@@ -496,6 +604,10 @@ ServiceStatus JobService::CreateJob(const Caller& caller, const v1::CreateJobReq
     return Error(ServiceCode::kResourceExhausted, "more than " + FormatLimit(limits.max_jobs_per_minute) +
                                                       " jobs created per minute (--max-jobs-per-minute); try again in a few seconds");
   Result<int64_t> id = m.store->CreateJob(req.spec(), m.options.max_attempts, Now(), caller.user);
+  if (!id.ok() && !m.StorageFault(id.status()).empty()) {
+    m.StorageFailed();
+    return Error(ServiceCode::kUnavailable, "the server takes no new jobs now: " + m.StorageFault(id.status()));
+  }
   if (!id.ok()) return Internal(id.status());
   Result<std::optional<v1::Job>> job = m.store->GetJob(*id);
   if (!job.ok() || !*job) return Internal(job.status());
@@ -504,6 +616,18 @@ ServiceStatus JobService::CreateJob(const Caller& caller, const v1::CreateJobReq
   m.Log("job " + std::to_string(*id) + " queued");
   m.metrics.JobCreated();
   m.Notify();
+  return ServiceStatus::Ok();
+}
+
+ServiceStatus JobService::Ready() {
+  Impl& m = *impl_;
+  if (m.draining || m.stopping) return Error(ServiceCode::kUnavailable, "the server is shutting down");
+  {
+    std::lock_guard lock(m.storage_mu);
+    if (!m.paused.empty()) return Error(ServiceCode::kUnavailable, m.paused.rbegin()->second);
+  }
+  if (const long long free = FreeBytes(m.options.data_dir); free >= 0 && free < kReadyFreeBytes)
+    return Error(ServiceCode::kUnavailable, "the server's disk is full (data folder " + m.options.data_dir + ", " + std::to_string(free) + " bytes free)");
   return ServiceStatus::Ok();
 }
 
@@ -643,6 +767,7 @@ ServiceStatus JobService::WatchJob(const Caller& caller, const v1::WatchJobReque
   if (!write(first)) return ServiceStatus::Ok();
   v1::JobState sent_state = job.state();
   bool sent_ended = !job.ended().empty();
+  bool sent_paused = !job.paused().empty();
   int next = req.from_iteration();
   uint64_t seen = m.CurrentVersion();
   while (!cancelled() && !m.stopping) {
@@ -662,14 +787,16 @@ ServiceStatus JobService::WatchJob(const Caller& caller, const v1::WatchJobReque
       }
       if (!write(ev)) return ServiceStatus::Ok();
     }
-    // A state change, or the design loop's end (the job's phase turns to EVALUATING).
-    if (state != sent_state || ended != sent_ended) {
+    // A state change, the design loop's end (the job's phase turns to EVALUATING), a pause or its end.
+    const bool paused = !m.PausedReason(req.id()).empty();
+    if (state != sent_state || ended != sent_ended || paused != sent_paused) {
       if (ServiceStatus st = m.FindJob(caller, req.id(), &job); !st.ok()) return st;
       v1::WatchJobEvent ev;
       *ev.mutable_job() = job;
       if (!write(ev)) return ServiceStatus::Ok();
       sent_state = job.state();
       sent_ended = !job.ended().empty();
+      sent_paused = !job.paused().empty();
     }
     if (IsTerminal(state) && next >= stored) return ServiceStatus::Ok();
     seen = m.WaitEvent(seen, 1.0);
@@ -902,34 +1029,45 @@ ServiceStatus JobService::RunJob(const Caller& caller, const std::function<bool(
   v1::JobState end = v1::QUEUED;
   std::string failure = "the worker disconnected";
   bool started = false, ended = false;
+  // What the server cannot store for want of space (or a failing disk) is tried again, the job paused
+  // meanwhile with its lease kept, until it is stored or the worker, the server or a cancel ends it.
+  const auto give_up = [&] { return cancelled() || m.draining || m.store->CancelRequested(job_id); };
+  const auto store_or_pause = [&](const std::function<Status()>& store_it) { return m.StoreOrPause(job_id, store_it, give_up); };
   do {
     v1::ServerMessage reply;
     std::string refused;
     if (msg.has_heartbeat()) {
-      if (!m.store->Renew(job_id, lease_id, Now(), m.options.lease_duration_s))
-        refused = "the lease on job " + std::to_string(job_id) + " is no longer held";
+      Result<bool> renewed = m.store->Renew(job_id, lease_id, Now(), m.options.lease_duration_s);
+      if (!renewed.ok() && m.StorageFault(renewed.status()).empty()) refused = renewed.message();
+      else if (!renewed.ok()) m.StorageFailed();  // neither renewed nor lost: no lease expires meanwhile
+      else if (!*renewed) refused = "the lease on job " + std::to_string(job_id) + " is no longer held";
     } else if (msg.has_start()) {
       if (Status st = started ? Status::Ok() : m.CheckResumeKernels(job_id, msg.start()); !st.ok()) {
         refused = st.message();  // the job is queued again, for a worker of its level
-      } else if (st = started ? Status::Error("a second start report") : m.OpenJobFile(job_id, lease_id, msg.start()); !st.ok()) {
+      } else if (st = started ? Status::Error("a second start report")
+                              : store_or_pause([&] { return m.OpenJobFile(job_id, lease_id, msg.start()); });
+                 !st.ok()) {
         refused = st.message();
         end = v1::FAILED;  // a worker that cannot describe its garment, or a file that cannot be written
+        if (!m.StorageFault(st).empty()) end = v1::QUEUED, failure = st.message();  // given up while paused: it resumes later
       }
       started = true;
     } else if (msg.has_iteration()) {
-      if (Status st = m.Commit(job_id, lease_id, msg.iteration()); !st.ok()) refused = st.message();
+      if (Status st = store_or_pause([&] { return m.Commit(job_id, lease_id, msg.iteration()); }); !st.ok()) refused = st.message();
       else {
         m.Notify();  // watchers first: the lease renewal is one more SQLite commit
-        m.store->Renew(job_id, lease_id, Now(), m.options.lease_duration_s);
+        if (Result<bool> renewed = m.store->Renew(job_id, lease_id, Now(), m.options.lease_duration_s); !renewed.ok()) m.StorageFailed();
       }
     } else if (msg.has_ended()) {
-      if (Status st = started ? m.store->SetEnded(job_id, lease_id, msg.ended()) : Status::Error("an end report before start"); !st.ok())
+      if (Status st = started ? store_or_pause([&] { return m.store->SetEnded(job_id, lease_id, msg.ended()); })
+                              : Status::Error("an end report before start");
+          !st.ok())
         refused = st.message();
       else
         m.Notify();  // watchers: the job's phase is now EVALUATING
     } else if (msg.has_cleaned()) {
       // An extra after the last iteration, as the evaluation: one that cannot be stored is logged.
-      if (Status st = m.store->SetCleaned(job_id, lease_id, msg.cleaned()); !st.ok())
+      if (Status st = store_or_pause([&] { return m.store->SetCleaned(job_id, lease_id, msg.cleaned()); }); !st.ok())
         m.Log("job " + std::to_string(job_id) + ": cleaned design not stored: " + st.message());
     } else if (msg.has_evaluation()) {
       // An extra after the last iteration: one that cannot be stored is logged, and the job goes on.
@@ -937,10 +1075,10 @@ ServiceStatus JobService::RunJob(const Caller& caller, const std::function<bool(
       {
         std::lock_guard lock(m.commit_mu);
         auto it = m.files.find(job_id);
-        if (it != m.files.end()) faces = it->second.writer->faces(), vertices = it->second.writer->vertices();
+        if (it != m.files.end() && it->second.writer) faces = it->second.writer->faces(), vertices = it->second.writer->vertices();
       }
       Result<DesignEvaluation> e = faces ? EvaluationFromProto(msg.evaluation(), faces, vertices) : Status::Error("no design file is open");
-      Status st = e.ok() ? WriteDesignEvaluation(EvaluationPath(m.FilePath(job_id)), *e) : e.status();
+      Status st = e.ok() ? store_or_pause([&] { return WriteDesignEvaluation(EvaluationPath(m.FilePath(job_id)), *e); }) : e.status();
       if (!st.ok()) m.Log("job " + std::to_string(job_id) + ": evaluation not stored: " + st.message());
     } else if (msg.has_complete()) {
       end = started ? v1::SUCCEEDED : v1::FAILED, failure = started ? "" : "completed without starting", ended = true;
@@ -958,14 +1096,22 @@ ServiceStatus JobService::RunJob(const Caller& caller, const std::function<bool(
     if (!ended) {
       std::lock_guard lock(m.commit_mu);
       auto it = m.files.find(job_id);
-      reply.set_acknowledged_iterations(it == m.files.end() ? 0 : it->second.writer->num_iterations());
+      reply.set_acknowledged_iterations(it == m.files.end() || !it->second.writer ? 0 : it->second.writer->num_iterations());
       reply.set_cancel(m.store->CancelRequested(job_id));
       reply.set_drain(m.draining);
       write(reply);
     }
   } while (!ended && read(&msg));
   m.CloseFile(job_id, lease_id);
-  Result<v1::JobState> state = m.store->EndLease(job_id, lease_id, end, failure, Now());
+  // The job's end is stored whenever the store can (a full disk pauses the job until then).
+  Result<v1::JobState> state = v1::JOB_STATE_UNSPECIFIED;
+  m.StoreOrPause(
+      job_id,
+      [&] {
+        state = m.store->EndLease(job_id, lease_id, end, failure, Now());
+        return state.status();
+      },
+      [] { return false; });
   if (state.ok()) m.Log("job " + std::to_string(job_id) + " " + v1::JobState_Name(*state) + (failure.empty() ? "" : " (" + failure + ")"));
   if (state.ok() && *state == v1::SUCCEEDED) m.LearnFromFinishedJob(job_id);
   m.Notify();

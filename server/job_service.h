@@ -110,6 +110,10 @@ class JobService {
   ServiceStatus ListScenes(v1::ListScenesResponse* response);
   // Prometheus text exposition of the service's figures (server/service_metrics.h).
   std::string MetricsText();
+  // Whether the service can take work (readiness, apart from liveness): OK, or UNAVAILABLE saying why
+  // not: a job is paused because the server cannot store (Job.paused), the data folder's file system
+  // has less than 2 MiB free, or the server drains. CreateJob refuses new jobs with the same reason.
+  ServiceStatus Ready();
   ServiceStatus CreateJob(const Caller& caller, const v1::CreateJobRequest& request, v1::Job* job);
   ServiceStatus GetJob(const Caller& caller, int64_t id, v1::Job* job);
   ServiceStatus ListJobs(const Caller& caller, const v1::ListJobsRequest& request, v1::ListJobsResponse* response);

@@ -112,14 +112,12 @@ class Stmt {
   Stmt& operator=(const Stmt&) = delete;
   bool ok() const { return error_.empty(); }
   const std::string& error() const { return error_; }
-  Stmt& Bind(int i, int64_t v) { sqlite3_bind_int64(s_, i, v); return *this; }
-  Stmt& Bind(int i, int v) { sqlite3_bind_int64(s_, i, v); return *this; }
-  Stmt& Bind(int i, double v) { sqlite3_bind_double(s_, i, v); return *this; }
-  Stmt& Bind(int i, const std::string& v) { sqlite3_bind_text(s_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT); return *this; }
-  Stmt& BindBlob(int i, const std::string& v) {
-    sqlite3_bind_blob(s_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT);
-    return *this;
-  }
+  // A value that cannot be bound makes the statement fail at Step, with SQLite's reason.
+  Stmt& Bind(int i, int64_t v) { return Check(sqlite3_bind_int64(s_, i, v)); }
+  Stmt& Bind(int i, int v) { return Check(sqlite3_bind_int64(s_, i, v)); }
+  Stmt& Bind(int i, double v) { return Check(sqlite3_bind_double(s_, i, v)); }
+  Stmt& Bind(int i, const std::string& v) { return Check(sqlite3_bind_text(s_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT)); }
+  Stmt& BindBlob(int i, const std::string& v) { return Check(sqlite3_bind_blob(s_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT)); }
   // SQLITE_ROW, SQLITE_DONE, or an error code (error() then says what).
   int Step() {
     if (!ok()) return SQLITE_ERROR;
@@ -143,6 +141,10 @@ class Stmt {
   sqlite3_stmt* get() { return s_; }
 
  private:
+  Stmt& Check(int rc) {
+    if (rc != SQLITE_OK && error_.empty()) error_ = std::string("binding a value: ") + sqlite3_errstr(rc);
+    return *this;
+  }
   sqlite3* db_;
   sqlite3_stmt* s_ = nullptr;
   std::string error_;
@@ -274,6 +276,16 @@ Status JobStore::Exec(const std::string& sql) {
   return Status::Ok();
 }
 
+Status JobStore::CommitOrRollBack() {
+  Status st = Exec("COMMIT");
+  // A COMMIT that fails on a full or failing disk (SQLITE_FULL, SQLITE_IOERR) may leave the transaction
+  // open: rolled back, the store reads as before it began and the next BEGIN starts afresh.
+  if (!st.ok() && !sqlite3_get_autocommit(db_)) {
+    if (Status rb = Exec("ROLLBACK"); !rb.ok()) return Status::Error(st.message() + "; rolling back failed too: " + rb.message());
+  }
+  return st;
+}
+
 Result<int64_t> JobStore::CreateJob(const v1::JobSpec& spec, int max_attempts, double now, const std::string& owner) {
   std::lock_guard lock(mu_);
   Stmt s(db_, "INSERT INTO jobs(spec, state, create_time_s, update_time_s, max_attempts, owner) VALUES(?, ?, ?, ?, ?, ?)");
@@ -401,15 +413,16 @@ Result<std::optional<Lease>> JobStore::LeaseNext(const std::string& worker, cons
     Exec("ROLLBACK");
     return SqlError("lease", up.error());
   }
-  if (Status st = Exec("COMMIT"); !st.ok()) return st;
+  if (Status st = CommitOrRollBack(); !st.ok()) return st;
   return std::optional<Lease>(std::move(lease));
 }
 
-bool JobStore::Renew(int64_t job_id, const std::string& lease_id, double now, double duration_s) {
+Result<bool> JobStore::Renew(int64_t job_id, const std::string& lease_id, double now, double duration_s) {
   std::lock_guard lock(mu_);
   Stmt s(db_, "UPDATE jobs SET lease_expire_s = ? WHERE id = ? AND lease_id = ? AND state = ?");
   s.Bind(1, now + duration_s).Bind(2, job_id).Bind(3, lease_id).Bind(4, static_cast<int>(v1::RUNNING));
-  return s.Run() && sqlite3_changes(db_) == 1;
+  if (!s.Run()) return SqlError("renew lease", s.error());
+  return sqlite3_changes(db_) == 1;
 }
 
 bool JobStore::LeaseValid(int64_t job_id, const std::string& lease_id) {
@@ -459,7 +472,7 @@ Status JobStore::AppendIteration(int64_t job_id, const std::string& lease_id, co
   Stmt up(db_, "UPDATE jobs SET iterations = iterations + 1 WHERE id = ?");
   up.Bind(1, job_id);
   if (!up.Run()) return fail(SqlError("store iteration", up.error()));
-  return Exec("COMMIT");
+  return CommitOrRollBack();
 }
 
 Result<v1::JobState> JobStore::EndLease(int64_t job_id, const std::string& lease_id, v1::JobState state, const std::string& failure,
@@ -484,7 +497,7 @@ Result<v1::JobState> JobStore::EndLease(int64_t job_id, const std::string& lease
     Exec("ROLLBACK");
     return SqlError("end lease", up.error());
   }
-  KGD_RETURN_IF_ERROR(Exec("COMMIT"));
+  KGD_RETURN_IF_ERROR(CommitOrRollBack());
   return state;
 }
 
@@ -590,7 +603,7 @@ Status JobStore::TruncateIterations(int64_t job_id, int keep) {
     Exec("ROLLBACK");
     return SqlError("truncate iterations", del_motions.error() + del.error() + up.error());
   }
-  return Exec("COMMIT");
+  return CommitOrRollBack();
 }
 
 Status JobStore::SetEnded(int64_t job_id, const std::string& lease_id, const std::string& ended) {

@@ -74,8 +74,9 @@ class JobStore {
   // iterations were computed with the same kernels (never, for a worker with empty `kernels`: it
   // does not say its own). nullopt when there is none: a job of another level waits in the queue.
   Result<std::optional<Lease>> LeaseNext(const std::string& worker, const std::string& kernels, double now, double duration_s);
-  // True while `lease_id` holds `job_id` (RUNNING, not expired); extends it to now + duration.
-  bool Renew(int64_t job_id, const std::string& lease_id, double now, double duration_s);
+  // True while `lease_id` holds `job_id` (RUNNING, not expired); extends it to now + duration. An
+  // error when the store cannot write (a full disk): the lease is then neither renewed nor lost.
+  Result<bool> Renew(int64_t job_id, const std::string& lease_id, double now, double duration_s);
   bool LeaseValid(int64_t job_id, const std::string& lease_id);
 
   // Stores iteration `metrics.iteration()` (it must be the next one), with its motions, of a job held
@@ -118,6 +119,8 @@ class JobStore {
  private:
   JobStore() = default;
   Status Exec(const std::string& sql);
+  // COMMIT, or ROLLBACK when the commit fails (the transaction left as if never begun).
+  Status CommitOrRollBack();
   Result<v1::Job> ReadJob(sqlite3_stmt* row);
   std::recursive_mutex mu_;
   sqlite3* db_ = nullptr;

@@ -238,7 +238,7 @@ TEST(JobStore, LeasesRenewsAndStoresIterationsInOrderForTheHolderOnly) {
   EXPECT_FALSE(*store->Iteration(a, 2));
 
   // Renewed leases live on; expired ones queue the job again, and it resumes where it was.
-  EXPECT_TRUE(store->Renew(a, lease, 110.0, 10.0));
+  EXPECT_TRUE(*store->Renew(a, lease, 110.0, 10.0));
   EXPECT_TRUE(store->ExpireLeases(115.0).empty());
   EXPECT_EQ(store->ExpireLeases(121.0), std::vector<int64_t>{a});
   EXPECT_EQ((**store->GetJob(a)).state(), v1::QUEUED);

@@ -169,9 +169,12 @@ function iterationsLeft(job, budget) {
 // iteration a job evaluates its final design (no countdown of iterations); an ended job says so.
 export function progressOf(job, budget) {
   const m = job.last;
-  if (!m || !job.iterations) return { text: job.state === 'QUEUED' ? 'waiting' : '', fraction: 0 };
+  // Paused: the server cannot store the job's work now (its disk is full); it continues by itself.
+  const paused = job.state === 'RUNNING' && job.paused ? `paused: ${readable(job.paused)}` : '';
+  if (!m || !job.iterations) return { text: job.state === 'QUEUED' ? 'waiting' : paused, fraction: 0 };
   const ratio = `ratio ${(m.densityRatio ?? 0).toFixed(2)}`;
   const it = `iteration ${job.iterations - 1}`;
+  if (paused) return { text: `${it}, ${ratio} · ${paused}`, fraction: job.iterations / (job.iterations + iterationsLeft(job, budget)) };
   if (job.state === 'RUNNING' && job.phase === 'EVALUATING') return { text: `${it}, ${ratio} · evaluating the final design (frames, Line, X)`, fraction: 1 };
   const done = job.state !== 'RUNNING' && job.state !== 'QUEUED';
   if (done) return { text: `${it}, ${ratio}`, fraction: 1 };
@@ -190,6 +193,8 @@ export function progressOf(job, budget) {
 export function jobNote(job) {
   if (!job) return null;
   if (job.state === 'FAILED') return { kind: 'failed', text: `Job ${job.id} failed: ${readable(job.failure || 'no reason given')}` };
+  if (job.state === 'RUNNING' && job.paused)
+    return { kind: 'paused', text: `Job ${job.id} paused: ${readable(job.paused)}; it continues by itself when the server can store again` };
   if (job.state === 'RUNNING' && job.phase === 'EVALUATING')
     return { kind: 'evaluating', text: `Evaluating the final design (frames, Line, X)${job.ended ? `; the design loop ${readable(job.ended)}` : ''}` };
   if (job.state === 'CANCELLED') return { kind: 'ended', text: `Job ${job.id} was cancelled after ${job.iterations || 0} iterations` };
