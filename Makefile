@@ -3,6 +3,8 @@ BUILD ?= build
 JOBS ?= 2
 CMAKE_FLAGS ?=
 
+
+.PHONY: faults
 .PHONY: setup build demo test images test-images acceptance stability test-sanitize bench study study-roles study-accuracy study-makehuman study-bodies fuzz clean
 
 setup:
@@ -71,6 +73,15 @@ fuzz: setup
 	cd $(SANITIZE_BUILD) && KGD_CACHE_DIR=$(abspath $(SANITIZE_BUILD))/test-cache UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
 	  tests/kgd_fuzz --source $(CURDIR) --kgd client/kgd --server server/kgd-server --worker worker/kgd-worker \
 	  --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
+
+# Random system faults (libfiu: write, fsync, open, mmap, allocation) during `kgd design`, FAULT_RUNS
+# runs from FAULT_SEED, every run judged against the uninterrupted design (tests/faults/fault_injection.py,
+# docs/RELIABILITY.md, whose table it writes). About 6 s a run on two cores.
+FAULT_RUNS ?= 300
+FAULT_SEED ?= 1
+faults: build
+	KGD_CACHE_DIR=$(abspath $(BUILD))/test-cache python3 tests/faults/fault_injection.py --kgd $(BUILD)/client/kgd --runs $(FAULT_RUNS) \
+	  --seed $(FAULT_SEED) --probability 0.01 --write-docs docs/RELIABILITY.md
 
 # Every benchmark once (about 20 minutes on two cores); every table they measure is written into
 # docs/PERFORMANCE.md and docs/SCALING.md between its markers (bench/tables.py, scripts/generated_block.py),

@@ -1,6 +1,8 @@
 // kgd: the kinesthetic garment designer's command-line interface.
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <iostream>
+#include <new>
 
 #include "client/body_command.h"
 #include "client/design_command.h"
@@ -10,7 +12,9 @@
 #include "client/study_command.h"
 #include "core/util/pinned_kernels.h"
 
-int main(int argc, char** argv) {
+namespace {
+
+int Run(int argc, char** argv) {
   kgd::PinNumericKernels(argv);  // the same designs on every machine (may execute the program again)
   CLI::App app{"kgd: kinesthetic garment designer"};
   app.require_subcommand(1);
@@ -28,4 +32,18 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : 1;
   }
   return exit_code;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return Run(argc, argv);
+  } catch (const std::bad_alloc&) {
+    // Out of memory: the command's files were closed on the way here (a design file keeps every
+    // iteration it stored, and `kgd design --resume` continues it). Exit 4, as for a failed write.
+    std::fputs("kgd: out of memory: the command stopped (a design job's file keeps the iterations it stored; "
+               "kgd design --resume FILE continues it)\n", stderr);
+    return 4;
+  }
 }
