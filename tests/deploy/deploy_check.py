@@ -25,10 +25,13 @@ import os
 import re
 import shutil
 import socket
+import ssl
 import subprocess
 import sys
 import tempfile
 import time
+import urllib.error
+import urllib.request
 
 import yaml
 
@@ -389,9 +392,25 @@ def main():
             raise Stop()
         for probe in ("readinessProbe", "livenessProbe"):
             cmd = get(server_pod.spec, f"{probe}.exec.command")
-            if check(cmd is not None, f"the StatefulSet's {probe} is a command"):
+            path = get(server_pod.spec, f"{probe}.httpGet.path")
+            if cmd is not None:
                 r = subprocess.run(server_pod.argv(cmd), env=server_pod.env, capture_output=True, text=True)
                 check(r.returncode == 0, f"the StatefulSet's {probe} passes: " + r.stderr.strip())
+            elif check(path is not None, f"the StatefulSet's {probe} is a command or an HTTP GET"):
+                # The kubelet's HTTPS probe: the named container port, no certificate check.
+                port = get(server_pod.spec, f"{probe}.httpGet.port")
+                number = next((p["containerPort"] for p in server_pod.spec.get("ports", []) if p.get("name") == port), port)
+                url = f"{get(server_pod.spec, f'{probe}.httpGet.scheme').lower()}://{addresses[f'0.0.0.0:{number}']}{path}"
+                try:
+                    context = ssl.create_default_context()
+                    context.check_hostname, context.verify_mode = False, ssl.CERT_NONE
+                    with urllib.request.urlopen(url, context=context, timeout=5) as r:
+                        status = r.status
+                except urllib.error.HTTPError as e:
+                    status = e.code
+                except OSError as e:
+                    status = str(e)
+                check(status == 200, f"the StatefulSet's {probe} (GET {url}) passes: {status}")
         argv = worker_pod.argv(container_argv(worker_pod.spec, stages["worker"]))
         print("run   " + " ".join(argv))
         worker_log = os.path.join(tmp, "worker.log")
