@@ -6,7 +6,10 @@
 #include <google/protobuf/util/message_differencer.h>
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -249,6 +252,55 @@ TEST(JobStore, LeasesRenewsAndStoresIterationsInOrderForTheHolderOnly) {
   EXPECT_EQ((*again)->iterations, 2);
   EXPECT_EQ(*store->EndLease(a, (*again)->lease_id, v1::SUCCEEDED, "", 130.0), v1::SUCCEEDED);
   EXPECT_EQ((*store->LeaseNext("w2", kV3, 131.0, 10.0))->job_id, b);
+  EXPECT_EQ(store->IntegrityCheck(), "ok");
+}
+
+// A full disk (a small tmpfs; mounting needs root, skipped otherwise): a write that fails there fails
+// as a value naming it, leaves the store as it was (the failed commit rolled back, no transaction left
+// open), and the same write succeeds once space is freed.
+TEST(JobStore, AFullDiskFailsAWriteWhichRollsBackAndSucceedsOnceFreed) {
+  if (geteuid() != 0) GTEST_SKIP() << "mounting a small tmpfs needs root";
+  const std::filesystem::path disk = std::filesystem::temp_directory_path() / ("kgd_job_store_test_disk_" + std::to_string(getpid()));
+  std::filesystem::create_directories(disk);
+  if (std::system(("mount -t tmpfs -o size=2m kgd-job-store-test " + disk.string()).c_str()) != 0)
+    GTEST_SKIP() << "cannot mount a tmpfs at " << disk;
+  struct Unmount {
+    std::filesystem::path disk;
+    ~Unmount() {
+      std::system(("umount " + disk.string()).c_str());
+      std::filesystem::remove_all(disk);
+    }
+  } unmount{disk};
+  auto store = std::move(JobStore::Open((disk / "kgd.sqlite").string())).value();
+  const int64_t a = *store->CreateJob(Spec(), 3, 100.0);
+  Result<std::optional<Lease>> la = store->LeaseNext("w1", kV3, 101.0, 1e6);
+  ASSERT_TRUE(la.ok() && *la);
+  const std::string lease = (*la)->lease_id;
+  ASSERT_TRUE(store->AppendIteration(a, lease, Metrics(0), std::string(5, '\1')).ok());
+  {
+    std::ofstream filler(disk / "filler", std::ios::binary);
+    const std::string block(4096, 'x');
+    while (filler.write(block.data(), block.size()) && filler.flush()) {
+    }
+  }
+  // Designs large enough to need new pages: the disk is full before the write can succeed.
+  int k = 1;
+  Status failed = Status::Ok();
+  for (; k < 200 && failed.ok(); ++k) failed = store->AppendIteration(a, lease, Metrics(k), std::string(64 << 10, '\1'));
+  ASSERT_FALSE(failed.ok()) << "the disk never filled";
+  const int stored = k - 1;  // iterations 0..stored-1 were stored; `stored` failed
+  EXPECT_NE(failed.message().find("full"), std::string::npos) << failed.message();
+  EXPECT_EQ((**store->GetJob(a)).iterations(), stored);
+  EXPECT_FALSE(*store->Iteration(a, stored));
+  // Reads and other transactions go on: none is left open by the failed commit.
+  EXPECT_EQ((**store->GetJob(a)).state(), v1::RUNNING);
+
+  std::filesystem::remove(disk / "filler");
+  Status again = store->AppendIteration(a, lease, Metrics(stored), std::string(64 << 10, '\1'));
+  EXPECT_TRUE(again.ok()) << again.message();
+  EXPECT_EQ((**store->GetJob(a)).iterations(), stored + 1);
+  EXPECT_TRUE(*store->Renew(a, lease, 102.0, 1e6));
+  EXPECT_EQ(*store->EndLease(a, lease, v1::SUCCEEDED, "", 103.0), v1::SUCCEEDED);
   EXPECT_EQ(store->IntegrityCheck(), "ok");
 }
 
