@@ -542,7 +542,7 @@ std::string StartWithFinishedJob(const Options& o, const std::string& dir, const
     if (f != "scene.json") parts.push_back({f, f, ReadBytes((motion.dir / f).string())});
   const std::string body = Multipart(parts, "kgdfuzz");
   const HttpAnswer created = Exchange(s->http_port,
-                                      std::string("POST /v1/jobs HTTP/1.1\r\nHost: x\r\nConnection: close\r\nAuthorization: Bearer ") + kAlice +
+                                      std::string("POST /v1/jobs HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\nAuthorization: Bearer ") + kAlice +
                                           "\r\nContent-Type: multipart/form-data; boundary=kgdfuzz\r\nContent-Length: " + std::to_string(body.size()) +
                                           "\r\n\r\n" + body,
                                       30);
