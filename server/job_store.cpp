@@ -1,5 +1,7 @@
 #include "server/job_store.h"
 
+#include "core/util/fault_point.h"
+
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/message.h>
 
@@ -221,6 +223,21 @@ Result<std::unique_ptr<JobStore>> JobStore::Open(const std::string& path) {
       SQLITE_OK)
     return Status::Error(path + ": cannot open the job database: " + (store->db_ ? sqlite3_errmsg(store->db_) : "out of memory"));
   sqlite3_busy_timeout(store->db_, 5000);
+  {
+    // A damaged database is refused, not written to: every page's structure is read (seconds for a
+    // month of jobs), and the first problems named.
+    Stmt s(store->db_, "PRAGMA quick_check(5)");
+    std::string problems;
+    int rc = SQLITE_ROW;
+    while ((rc = s.Step()) == SQLITE_ROW) {
+      const std::string line = s.Text(0);
+      if (line != "ok") problems += (problems.empty() ? "" : "; ") + line;
+    }
+    if (rc != SQLITE_DONE && rc != SQLITE_NOTADB && problems.empty()) problems = s.error();
+    if (!problems.empty())
+      return Status::Error(path + ": the job database is damaged (SQLite quick_check: " + problems +
+                           "); the server does not start on it: restore it from a backup, or move it aside to start an empty one");
+  }
   // WAL: readers never block the writer; synchronous=NORMAL keeps every committed transaction through a
   // crash of the process (not through power loss, which would need FULL and an fsync per iteration).
   if (Status st = store->Exec("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL; PRAGMA foreign_keys=ON;"); !st.ok())
@@ -472,6 +489,7 @@ Status JobStore::AppendIteration(int64_t job_id, const std::string& lease_id, co
   Stmt up(db_, "UPDATE jobs SET iterations = iterations + 1 WHERE id = ?");
   up.Bind(1, job_id);
   if (!up.Run()) return fail(SqlError("store iteration", up.error()));
+  FaultPoint("job_store.append.before_commit", m.iteration());
   return CommitOrRollBack();
 }
 

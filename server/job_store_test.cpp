@@ -58,6 +58,39 @@ TEST(JobStore, MigratesAFreshDatabaseAndRefusesANewerOne) {
   EXPECT_FALSE(garbage.ok());
 }
 
+// A database damaged on disk (bytes of a page overwritten) is refused at open, named, and not written to.
+TEST(JobStore, ADamagedDatabaseIsRefusedNamingIt) {
+  const std::string path = FreshPath("damaged");
+  {
+    Result<std::unique_ptr<JobStore>> store = JobStore::Open(path);
+    ASSERT_TRUE(store.ok());
+    for (int i = 0; i < 400; ++i) ASSERT_TRUE((*store)->CreateJob(Spec(), 3, 100.0 + i).ok());
+  }
+  {
+    sqlite3* db = nullptr;  // the log folded into the database file, so that the damage lands in the jobs' pages
+    sqlite3_open(path.c_str(), &db);
+    sqlite3_exec(db, "PRAGMA wal_checkpoint(TRUNCATE); PRAGMA journal_mode=DELETE;", nullptr, nullptr, nullptr);
+    sqlite3_close(db);
+  }
+  const auto size = std::filesystem::file_size(path);
+  ASSERT_GT(size, 8u * 4096);
+  {
+    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+    const std::string junk(2048, '\x5a');
+    for (uintmax_t page = 2; page * 4096 + 2048 < size; page += 3) {
+      f.seekp(static_cast<std::streamoff>(page * 4096 + 8));
+      f.write(junk.data(), static_cast<std::streamsize>(junk.size()));
+    }
+  }
+  const auto before = std::filesystem::last_write_time(path);
+  Result<std::unique_ptr<JobStore>> damaged = JobStore::Open(path);
+  ASSERT_FALSE(damaged.ok());
+  EXPECT_NE(damaged.message().find(path), std::string::npos) << damaged.message();
+  EXPECT_TRUE(damaged.message().find("damaged") != std::string::npos || damaged.message().find("malformed") != std::string::npos)
+      << damaged.message();
+  EXPECT_EQ(std::filesystem::last_write_time(path), before);
+}
+
 // A version-2 database (iterations without the solve profile) migrates: its rows read the profile as 0,
 // and new rows keep theirs.
 TEST(JobStore, AVersion2DatabaseGainsTheSolveProfileColumns) {
