@@ -331,7 +331,7 @@ TEST_F(Security, AUserCannotSeeWatchFetchExportOrCancelAnothersJobOnAnyRoute) {
   const std::map<Who, std::string> tokens = {{kOwner, kAlice}, {kAdmin, kRoot}, {kOther, kBob}, {kWorkerToken, kWorker}, {kNobody, ""}};
   struct Route {
     std::string method, path;  // path: with the job's id and a query where the route takes one
-    std::map<Who, int> status;  // the HTTP status each caller gets (kNobody: always 401)
+    std::map<Who, int> status;  // the HTTP status each caller gets (kNobody: 401 unless given)
     std::string type;           // the Content-Type of the success
     Check body;                 // the success's body
   };
@@ -372,6 +372,9 @@ TEST_F(Security, AUserCannotSeeWatchFetchExportOrCancelAnothersJobOnAnyRoute) {
       // without the parametric body has no body to serve (building one takes seconds: not here).
       {"POST", "/v1/regions:check", {{kOwner, 200}, {kAdmin, 200}, {kOther, 200}, {kWorkerToken, 200}}, json, has("\"valid\"")},
       {"GET", "/v1/scenes/sleeve_on_limb/body/rest.obj", {{kOwner, 404}, {kAdmin, 404}, {kOther, 404}, {kWorkerToken, 404}}, "", has("")},
+      // The probes' routes need no token and say only whether the server lives and can store.
+      {"GET", "/healthz", {{kNobody, 200}, {kOwner, 200}, {kAdmin, 200}, {kOther, 200}, {kWorkerToken, 200}}, "text/plain; charset=utf-8", has("ok")},
+      {"GET", "/readyz", {{kNobody, 200}, {kOwner, 200}, {kAdmin, 200}, {kOther, 200}, {kWorkerToken, 200}}, "text/plain; charset=utf-8", has("ready")},
   };
   // A region of a square's two faces (the region check's answer, whatever its verdict).
   const httplib::MultipartFormDataItems region = {{"body", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n", "square.obj", "text/plain"},
@@ -392,7 +395,7 @@ TEST_F(Security, AUserCannotSeeWatchFetchExportOrCancelAnothersJobOnAnyRoute) {
 
   for (const Route& r : routes) {
     std::map<Who, int> expected = r.status;
-    expected[kNobody] = 401;
+    expected.emplace(kNobody, 401);
     for (const auto& [who, status] : expected) {
       httplib::Client c = Http(tokens.at(who));
       const std::string what = r.method + " " + r.path + " as " + (who == kNobody ? "no one" : tokens.at(who));
