@@ -19,6 +19,7 @@
 #include <sys/statvfs.h>
 
 #include "core/scene/builtin_scenes.h"
+#include "core/util/fault_point.h"
 #include "job/cost_calibration.h"
 #include "job/fabrication_export.h"
 #include "proto/job_spec.h"
@@ -382,6 +383,7 @@ struct JobService::Impl {
       }
       if (!(*w)->repair_note().empty()) Log(path + ": " + (*w)->repair_note());
       const int on_disk = (*w)->num_iterations();
+      FaultPoint("repair.after_reopen", on_disk);
       if (on_disk < job.iterations()) {
         Log(path + ": holds fewer iterations than acknowledged; trimming job " + std::to_string(job.id()));
         KGD_RETURN_IF_ERROR(store->TruncateIterations(job.id(), on_disk));
@@ -404,6 +406,21 @@ struct JobService::Impl {
     *out = **job;
     Decorate(out);
     return ServiceStatus::Ok();
+  }
+
+  // What a reader of job `id`'s design file is told when reading it failed with `st`: a file that is
+  // gone (moved away or deleted by a clean-up) or damaged is named for the job, without the server's own
+  // path, which means nothing to a client (the server's log has it).
+  ServiceStatus DesignFileError(int64_t id, const Status& st) {
+    const std::string job = "job " + std::to_string(id);
+    const std::string path = FilePath(id);
+    Log(st.message());
+    if (std::error_code ec; !fs::exists(path, ec))
+      return Error(ServiceCode::kNotFound, job + "'s design file is missing from the server's data folder (moved or deleted): its designs and arrays "
+                                                 "cannot be served; its metrics still can (kgd job " + std::to_string(id) + ")");
+    std::string what = st.message();
+    if (what.rfind(path + ": ", 0) == 0) what = what.substr(path.size() + 2);
+    return Error(ServiceCode::kInternal, job + "'s design file: " + what);
   }
 
   // Positions, energy densities and sensitivities of iteration k from the job's design file.
@@ -446,16 +463,20 @@ struct JobService::Impl {
                            " MiB, the limit (--max-design-file-mb)");
     Result<BesoIteration> it_rec = RecordFromProto(record, w.faces(), w.vertices());
     if (!it_rec.ok()) return it_rec.status();
+    const int k = record.metrics().iteration();
+    FaultPoint("commit.before_hdf5", k);
     const auto t0 = std::chrono::steady_clock::now();
     if (Status st = w.Append(*it_rec); !st.ok()) {
       it->second.reopen = true;
       return st;
     }
+    FaultPoint("commit.after_hdf5", k);
     const auto t1 = std::chrono::steady_clock::now();
     if (Status st = store->AppendIteration(job_id, lease_id, record.metrics(), record.design()); !st.ok()) {
       it->second.reopen = true;
       return st;
     }
+    FaultPoint("commit.after_sqlite", k);
     const auto t2 = std::chrono::steady_clock::now();
     metrics.IterationStored(record.metrics().total_s(), record.metrics().report_time_s(), std::chrono::duration<double>(t1 - t0).count(),
                             std::chrono::duration<double>(t2 - t1).count());
@@ -537,6 +558,7 @@ struct JobService::Impl {
         return Status::Error(path + ": " + (*w)->repair_note() + "; the job needs a server restart to be trimmed");
     }
     if (!w.ok()) return w.status();
+    FaultPoint("open_job_file.after_open", (*job)->iterations());
     files[job_id] = OpenFile{lease_id, std::move(w).value()};
     return Status::Ok();
   }
@@ -782,7 +804,7 @@ ServiceStatus JobService::WatchJob(const Caller& caller, const v1::WatchJobReque
       *ev.mutable_iteration() = **rec;
       if (req.with_positions()) {
         Result<BesoIteration> arrays = m.ReadArrays(req.id(), next);
-        if (!arrays.ok()) return Internal(arrays.status());
+        if (!arrays.ok()) return m.DesignFileError(req.id(), arrays.status());
         for (Eigen::Index i = 0; i < arrays->positions.size(); ++i) ev.mutable_iteration()->add_positions(arrays->positions.data()[i]);
       }
       if (!write(ev)) return ServiceStatus::Ok();
@@ -814,7 +836,7 @@ ServiceStatus JobService::GetIteration(const Caller& caller, const v1::GetIterat
                                              " is not stored (" + (job.iterations() ? "0.." + std::to_string(job.iterations() - 1) : "none yet") + ")");
   std::lock_guard lock(m.commit_mu);
   Result<DesignFile> f = ReadDesignFile(m.FilePath(req.id()), {.arrays = true, .only_iteration = k});
-  if (!f.ok()) return Internal(f.status());
+  if (!f.ok()) return m.DesignFileError(req.id(), f.status());
   if (k >= static_cast<int>(f->iterations.size())) return Error(ServiceCode::kInternal, "design file misses iteration " + std::to_string(k));
   *out->mutable_record() = RecordToProto(f->iterations[k]);
   if (req.with_garment()) *out->mutable_garment() = GarmentToProto(f->header);
@@ -843,7 +865,7 @@ ServiceStatus JobService::GetGarment(const Caller& caller, int64_t id, v1::Garme
     return Error(ServiceCode::kNotFound, "job " + std::to_string(id) + " has no garment yet (it has no iteration; watch it until the first arrives)");
   std::lock_guard lock(m.commit_mu);
   Result<DesignFile> f = ReadDesignFile(m.FilePath(id), {.arrays = false});
-  if (!f.ok()) return Internal(f.status());
+  if (!f.ok()) return m.DesignFileError(id, f.status());
   *out = GarmentToProto(f->header);
   return ServiceStatus::Ok();
 }
@@ -855,9 +877,14 @@ ServiceStatus JobService::GetDesignFile(const Caller& caller, int64_t id, std::s
   if (job.state() == v1::QUEUED || job.state() == v1::RUNNING)
     return Error(ServiceCode::kFailedPrecondition, "job " + std::to_string(id) + " is " + v1::JobState_Name(job.state()) +
                                                        ": its design file is still being written; download it once the job has ended (an iteration's PLY is ready now)");
+  if (job.iterations() == 0) return Error(ServiceCode::kNotFound, "job " + std::to_string(id) + " has no design file (it stored no iteration)");
+  // Verified before it is served: a damaged file is named, not sent.
+  std::unique_lock lock(m.commit_mu);
+  if (Result<DesignFileCheck> check = CheckDesignFile(m.FilePath(id)); !check.ok() || !check->ok())
+    return m.DesignFileError(id, check.ok() ? Status::Error(check->first_damage) : check.status());
+  lock.unlock();
   std::ifstream in(m.FilePath(id), std::ios::binary);
-  if (job.data_file().empty() || !in)
-    return Error(ServiceCode::kNotFound, "job " + std::to_string(id) + " has no design file (it stored no iteration)");
+  if (!in) return m.DesignFileError(id, Status::Error(m.FilePath(id) + ": cannot be opened"));
   std::ostringstream contents;
   contents << in.rdbuf();
   *bytes = std::move(contents).str();
@@ -933,7 +960,7 @@ ServiceStatus JobService::ExportDesign(const Caller& caller, const v1::ExportDes
           std::lock_guard lock(m.commit_mu);
           return ReadDesignFile(m.FilePath(req.id()), {.arrays = true, .only_iteration = k});
         }();
-        if (!f.ok()) return {Internal(f.status()), nullptr};
+        if (!f.ok()) return {m.DesignFileError(req.id(), f.status()), nullptr};
         Result<ExportFiles> made = ExportGeometry(f->header, f->iterations[k], o);
         if (!made.ok()) return {Error(ServiceCode::kInvalidArgument, "job " + std::to_string(req.id()) + ": " + made.message()), nullptr};
         if (simulated) ApplyCleanedSimulation(*simulated, &*made);

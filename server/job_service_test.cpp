@@ -7,11 +7,13 @@
 #include "server/job_service.h"
 
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include <atomic>
 #include <condition_variable>
 #include <deque>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
 #include <thread>
 
@@ -23,6 +25,7 @@
 #include "proto/records.h"
 #include "job/fabrication_export.h"
 #include "server/job_results.h"
+#include "store/design_file.h"
 
 namespace kgd::server {
 namespace {
@@ -653,6 +656,67 @@ TEST(JobService, AWorkersMeasuredSpeedIsTheFactorOfTheFirstPredictions) {
   lease_with_speed(1.0, 5.0);
   ASSERT_TRUE(s->ListScenes(&after).ok());
   EXPECT_DOUBLE_EQ(after.machine_factor(), 2.0) << "the first measurement stands until jobs teach more";
+}
+
+// A finished job's design file moved away (a clean-up script) or damaged: every read of it names the
+// job and what is wrong, never the server's own path, and a damaged file is not served.
+TEST(JobService, AMissingOrDamagedDesignFileIsNamedOnEveryRead) {
+  auto s = Open(Options(FreshDir("missing")));
+  ASSERT_TRUE(s);
+  v1::Job job;
+  ASSERT_TRUE(s->CreateJob(kAlice, SleeveJob(), &job).ok());
+  const v1::LeaseJobResponse lease = Lease(*s);
+  FakeStream w(*s);
+  w.Send(Start(lease.lease_id()));
+  for (int k = 0; k < 3; ++k) w.Send(Report(lease.lease_id(), k));
+  w.Send(Complete(lease.lease_id()));
+  w.WaitEnded();
+  const std::string path = Job(*s, job.id()).data_file();
+  fs::rename(path, path + ".away");
+  v1::GetIterationRequest r;
+  r.set_id(job.id());
+  r.set_iteration(1);
+  v1::GetIterationResponse it;
+  v1::Garment garment;
+  std::string bytes;
+  const std::string missing = "job " + std::to_string(job.id()) + "'s design file is missing from the server's data folder";
+  for (const ServiceStatus& st : {s->GetIteration(kAlice, r, &it), s->GetGarment(kAlice, job.id(), &garment), s->GetDesignFile(kAlice, job.id(), &bytes)}) {
+    EXPECT_EQ(st.code, ServiceCode::kNotFound) << st.message;
+    EXPECT_NE(st.message.find(missing), std::string::npos) << st.message;
+    EXPECT_EQ(st.message.find(path), std::string::npos) << "the server's own path: " << st.message;
+  }
+  // Back, with 64 bytes of iteration 1's positions inverted: named, not served.
+  fs::rename(path + ".away", path);
+  {
+    Result<DesignFile> f = ReadDesignFile(path);
+    ASSERT_TRUE(f.ok());
+    hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    hid_t set = H5Dopen2(file, "/iterations/positions", H5P_DEFAULT);
+    hsize_t offset[3] = {1, 0, 0};
+    unsigned mask = 0;
+    haddr_t addr = 0;
+    hsize_t size = 0;
+    H5Dget_chunk_info_by_coord(set, offset, &mask, &addr, &size);
+    H5Dclose(set);
+    H5Fclose(file);
+    ASSERT_GT(size, 64u);
+    std::fstream bytes_on_disk(path, std::ios::in | std::ios::out | std::ios::binary);
+    std::string b(64, '\0');
+    bytes_on_disk.seekg(addr + size / 2);
+    bytes_on_disk.read(b.data(), 64);
+    for (char& c : b) c = static_cast<char>(~c);
+    bytes_on_disk.seekp(addr + size / 2);
+    bytes_on_disk.write(b.data(), 64);
+  }
+  ServiceStatus st = s->GetIteration(kAlice, r, &it);
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message.find("iteration 1 is damaged: /iterations/positions"), std::string::npos) << st.message;
+  EXPECT_EQ(st.message.find(path), std::string::npos) << st.message;
+  st = s->GetDesignFile(kAlice, job.id(), &bytes);
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message.find("iteration 1 is damaged"), std::string::npos) << st.message;
+  r.set_iteration(2);
+  EXPECT_TRUE(s->GetIteration(kAlice, r, &it).ok()) << "an intact iteration of a damaged file is still served";
 }
 
 TEST(JobService, GarmentDesignFileEnergyPerAreaAndPlyComeFromTheStoredJob) {
