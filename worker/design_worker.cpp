@@ -12,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "core/util/fault_point.h"
 #include "core/util/pinned_kernels.h"
 #include "job/design_job.h"
 #include "job/fabrication_export.h"
@@ -204,11 +205,14 @@ struct DesignWorker::Impl {
         *m.mutable_iteration() = RecordToProto(it);
         m.mutable_iteration()->mutable_metrics()->set_report_time_s(
             std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count());
+        FaultPoint("worker.before_report", it.iteration);
         if (!send(m)) lost = true;
+        FaultPoint("worker.after_report", it.iteration);
         // At most one report ahead of the server's replies: cancel and drain arrive on them, and a worker
         // whose iterations outrun the server's commits would otherwise run on for several iterations
         // after a cancel. Normally the reply to the previous report is long in.
         while (acknowledged < it.iteration && keep_going()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        FaultPoint("worker.after_acknowledged", it.iteration);
         return keep_going();
       };
       if (keep_going()) {
