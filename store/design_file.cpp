@@ -165,6 +165,19 @@ Id WriterAccess() {
   return fapl;
 }
 
+// Clears the superblock's "open for write" flags (HDF5's fapl property "clear_status_flags", which
+// h5clear sets): true when the file opened and closed with them cleared.
+bool ClearWriteMark(const std::string& path) {
+  Id fapl = WriterAccess();
+  hbool_t clear = true;
+  if (H5Pset(fapl, "clear_status_flags", &clear) < 0) return false;
+  Id file(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl), H5Fclose);
+  if (!file.ok()) return false;
+  file.reset();
+  ClearHdf5Error();
+  return true;
+}
+
 // A design file open for reading: the header read and checked, iterations read one at a time.
 struct DesignFileReader {
   std::string path;
@@ -589,6 +602,11 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
     Id probe(H5Fopen(path.c_str(), H5F_ACC_RDWR, WriterAccess()), H5Fclose);
     if (!probe.ok() && std::filesystem::is_regular_file(path)) {
       if (access(path.c_str(), W_OK) != 0) return Fail(path, "not writable");
+      // A writer whose last write failed outside SWMR mode (opening, truncating, closing) leaves the
+      // superblock marked "open for write" without the SWMR flag, which SWMR readers refuse too. The
+      // lock above is held, so no writer has the file: the mark is cleared (what h5clear does) and
+      // the file rebuilt from the iterations that read back.
+      ClearWriteMark(path);
       Result<std::unique_ptr<DesignFileReader>> r = OpenDesignFileReader(path, /*salvage=*/true);
       if (r.ok()) {
         if (keep > static_cast<int>((*r)->marker_rows))

@@ -404,6 +404,41 @@ TEST(DesignFile, AKilledWritersFileIsRebuiltWithEveryIteration) {
   std::filesystem::remove(path);
 }
 
+// A writer that stops while it has the file open outside SWMR mode (a failed write while reopening,
+// truncating or closing it) leaves the superblock marked "open for write" without the SWMR flag, which
+// every reader refuses; Reopen clears the mark, rebuilds the file with every iteration and appends.
+TEST(DesignFile, AFileLeftOpenForWriteOutsideSwmrIsRebuiltWithEveryIteration) {
+  const Fixture f = MakeRun(3);
+  const std::string path = TempPath("open_outside_swmr.h5");
+  {
+    auto w = DesignFileWriter::Create(path, f.header);
+    ASSERT_TRUE(w.ok()) << w.message();
+    for (int k = 0; k < 3; ++k) ASSERT_TRUE((*w)->Append(f.run[k]).ok());
+  }
+  const pid_t child = fork();
+  if (child == 0) {
+    hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+    H5Pset_libver_bounds(fapl, H5F_LIBVER_LATEST, H5F_LIBVER_LATEST);
+    H5Pset_file_locking(fapl, false, true);
+    _exit(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl) >= 0 ? 0 : 1);  // exits with the file open
+  }
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "the child could not open the file";
+  const Result<DesignFile> marked = ReadDesignFile(path);
+  ASSERT_FALSE(marked.ok()) << "the file is not marked open for write: the test tests nothing";
+  EXPECT_NE(marked.message().find("already open for write"), std::string::npos) << marked.message();
+  auto w = DesignFileWriter::Reopen(path, 2);
+  ASSERT_TRUE(w.ok()) << w.message();
+  EXPECT_EQ((*w)->num_iterations(), 2);
+  ASSERT_TRUE((*w)->Append(f.run[2]).ok());
+  w->reset();
+  const Result<DesignFile> d = ReadDesignFile(path);
+  ASSERT_TRUE(d.ok()) << d.message();
+  ExpectRunPrefix(f, *d, 3);
+  std::filesystem::remove(path);
+}
+
 // SIGKILL at any moment of the append cycle. HDF5 1.10 is not crash-safe even in SWMR mode (about one
 // kill in 150 damages committed rows: design_file.cpp, Salvage), so what holds is: reading never hangs,
 // Reopen yields a file whose iterations are a prefix of what was written, bit for bit, and appending
