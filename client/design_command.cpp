@@ -21,6 +21,7 @@
 #include <sstream>
 
 #include "client/metrics_json.h"
+#include "client/out_of_memory.h"
 #include "client/optimizer_flags.h"
 #include "client/simulate_command.h"
 #include "proto/job_spec.h"
@@ -154,6 +155,7 @@ int RunDesign(const DesignOptions& o) {
   const BesoSettings& settings = job->settings();
   const bool bar = !o.json && isatty(STDOUT_FILENO);
   g_interrupted = false;
+  InstallOutOfMemoryReserve();
   std::signal(SIGINT, OnInterrupt);
   std::signal(SIGTERM, OnInterrupt);
 
@@ -221,7 +223,7 @@ int RunDesign(const DesignOptions& o) {
     }
     std::fflush(stdout);
     metrics.push_back(MetricsOnly(it));
-    return write_status.ok() && !g_interrupted;
+    return write_status.ok() && !g_interrupted && !OutOfMemory();
   };
   const Result<std::vector<BesoIteration>> run = RunDesignJob(*job, on_iteration);
   std::signal(SIGINT, SIG_DFL);
@@ -229,6 +231,10 @@ int RunDesign(const DesignOptions& o) {
   if (bar) std::printf("\n");
   if (!write_status.ok())
     return Fail("design", write_status.message() + "; once there is room, continue with: kgd design --resume " + path, kExitStorage);
+  if (OutOfMemory())
+    return Fail("design", "out of memory: stopped after iteration " + std::to_string(metrics.empty() ? -1 : metrics.back().iteration) +
+                              ", which is stored in " + path + "; continue with: kgd design --resume " + path,
+                kExitStorage);
   // Refused before its first iteration (the scene or the settings: a garment that is not symmetric, a
   // pressure limit the cloth garment already breaks): bad input; the new file holds no iteration and goes.
   if (!run.ok() && metrics.empty()) {

@@ -511,7 +511,16 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
   m.lock = std::move(lock).value();
   Id fapl = WriterAccess();
   m.file = Id(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl), H5Fclose);
-  if (!m.file.ok()) return Fail(path, "cannot create the HDF5 file: " + LastHdf5Error());
+  // A file that could not be made whole holds nothing worth keeping (no iteration): it goes, so that
+  // nothing half written is left to be read or resumed.
+  auto failed = [&](const std::string& what) {
+    const Status st = Fail(path, what + ": " + LastHdf5Error());
+    m.file.reset();
+    std::error_code ec;
+    std::filesystem::remove(path, ec);
+    return st;
+  };
+  if (!m.file.ok()) return failed("cannot create the HDF5 file");
   bool ok = WriteStringAttribute(m.file, "format", kFormat) && WriteIntAttribute(m.file, "format_version", kFormatVersion);
   {
     Id job(H5Gcreate2(m.file, "job", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
@@ -564,8 +573,8 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
   if (h.motions.size() > 1) ok = ok && CreateGrowing(m.iterations, kMotionPositions, H5T_IEEE_F64LE, {h.motions.size() - 1, nv, 3}, Storage::kRaw);
   m.motions = h.motions.size();
   m.motion_positions = h.motions.size() > 1;
-  if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return Fail(path, "cannot write the design file: " + LastHdf5Error());
-  if (H5Fstart_swmr_write(m.file) < 0) return Fail(path, "cannot start single-writer/multiple-reader mode");
+  if (!ok || H5Fflush(m.file, H5F_SCOPE_GLOBAL) < 0) return failed("cannot write the design file");
+  if (H5Fstart_swmr_write(m.file) < 0) return failed("cannot start single-writer/multiple-reader mode");
   return w;
 }
 

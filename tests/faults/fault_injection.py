@@ -67,7 +67,10 @@ def run_enabling_mid_run(cmd, env, commands, timeout=120):
             c = []
             for command in commands:
                 c += ["-c", command]
-            subprocess.run(["fiu-ctrl", "-f", ctrl, *c, str(p.pid)], capture_output=True, timeout=30)
+            try:  # a process that ended meanwhile leaves fiu-ctrl waiting on its control pipe
+                subprocess.run(["fiu-ctrl", "-f", ctrl, *c, str(p.pid)], capture_output=True, timeout=10)
+            except subprocess.TimeoutExpired:
+                pass
     code = p.wait()
     hung = not timer.is_alive()
     timer.cancel()
@@ -92,8 +95,11 @@ def judge(kgd, ref, path, code, out):
     """(outcome, detail) of one faulty run."""
     if code is None:
         return "anything else", "hang (timeout)"
-    if code < 0 or code >= 128:
-        return "anything else", f"killed by signal {-code if code < 0 else code - 128}"
+    last = " | ".join(line for line in out.splitlines() if not line.startswith("{"))[-300:]
+    if code == 255:
+        return "anything else", f"exit 255: {last}"
+    if code < 0 or code >= 129:
+        return "anything else", f"killed by signal {-code if code < 0 else code - 128}: {last}"
     if code == 0:
         got = designs(kgd, path)
         if got != ref:
