@@ -76,12 +76,19 @@ fuzz: setup
 
 # Random system faults (libfiu: write, fsync, open, mmap, allocation) during `kgd design`, FAULT_RUNS
 # runs from FAULT_SEED, every run judged against the uninterrupted design (tests/faults/fault_injection.py,
-# docs/RELIABILITY.md, whose table it writes). About 6 s a run on two cores.
+# docs/RELIABILITY.md, whose table it writes). About 6 s a run on two cores. Then the same faults in the
+# design service, SERVICE_FAULT_RUNS runs of `kgd serve` (tests/faults/service_faults.py, the second
+# table), about 7 s a run. Both run; the target fails when either finds a defect.
 FAULT_RUNS ?= 300
+SERVICE_FAULT_RUNS ?= 100
 FAULT_SEED ?= 1
 faults: build
+	status=0; \
 	KGD_CACHE_DIR=$(abspath $(BUILD))/test-cache python3 tests/faults/fault_injection.py --kgd $(BUILD)/client/kgd --runs $(FAULT_RUNS) \
-	  --seed $(FAULT_SEED) --probability 0.01 --write-docs docs/RELIABILITY.md
+	  --seed $(FAULT_SEED) --probability 0.01 --write-docs docs/RELIABILITY.md || status=1; \
+	KGD_CACHE_DIR=$(abspath $(BUILD))/test-cache python3 tests/faults/service_faults.py --kgd $(BUILD)/client/kgd --runs $(SERVICE_FAULT_RUNS) \
+	  --seed $(FAULT_SEED) --probability 0.01 --write-docs docs/RELIABILITY.md || status=1; \
+	exit $$status
 
 # Every benchmark once (about 20 minutes on two cores); every table they measure is written into
 # docs/PERFORMANCE.md and docs/SCALING.md between its markers (bench/tables.py, scripts/generated_block.py),
