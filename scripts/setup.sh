@@ -24,6 +24,7 @@ PACKAGES=(
   openssl                  # deploy/make-secrets.sh; the tests' throwaway certificate authority
   python3 python3-yaml     # tests/deploy/deploy_check.py reads the compose file and the manifests
   fiu-utils                # the storage fault tests and `make faults`: libfiu's POSIX preload fails writes, fsyncs, opens
+  faketime                 # tests/time_and_network_test: libfaketime steps kgd-server's wall clock an hour forward and back
 )
 
 # --browser: also Debian's chromium, for the web page's browser tests (`make test` passes it).

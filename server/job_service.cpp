@@ -33,7 +33,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// Unix seconds: the times users see (a job's create and update times).
 double Now() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
+// Seconds of the monotonic clock, which a step of the wall clock does not move: every duration the
+// service measures (lease deadlines, long polls, the drain, the rate limit, the storage-failure grace).
+double SteadyNow() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+StoreTime StoreNow() { return {Now(), SteadyNow()}; }
 
 ServiceStatus Error(ServiceCode code, std::string message) { return ServiceStatus{code, std::move(message)}; }
 ServiceStatus Internal(const Status& st) { return Error(ServiceCode::kInternal, st.message()); }
@@ -231,7 +236,7 @@ struct JobService::Impl {
     if (rate <= 0) return true;
     std::lock_guard lock(limits_mu);
     Bucket& b = creations[user];
-    const double now = Now();
+    const double now = SteadyNow();
     b.tokens = b.time < 0 ? rate : std::min(rate, b.tokens + (now - b.time) * rate / 60);
     b.time = now;
     if (b.tokens < 1) return false;
@@ -271,11 +276,11 @@ struct JobService::Impl {
   // Records a storage failure (no job paused by it).
   void StorageFailed() {
     std::lock_guard lock(storage_mu);
-    storage_failed_s = Now();
+    storage_failed_s = SteadyNow();
   }
   bool StorageFailedRecently() const {
     std::lock_guard lock(storage_mu);
-    return Now() - storage_failed_s < options.lease_duration_s;
+    return SteadyNow() - storage_failed_s < options.lease_duration_s;
   }
   std::string PausedReason(int64_t id) const {
     std::lock_guard lock(storage_mu);
@@ -286,7 +291,7 @@ struct JobService::Impl {
     bool first = false;
     {
       std::lock_guard lock(storage_mu);
-      storage_failed_s = Now();
+      storage_failed_s = SteadyNow();
       first = !paused.count(id);
       paused[id] = reason;
     }
@@ -572,7 +577,7 @@ struct JobService::Impl {
       if (StorageFailedRecently()) continue;
       {
         std::lock_guard lock(commit_mu);
-        expired = store->ExpireLeases(Now());
+        expired = store->ExpireLeases(StoreNow());
         for (int64_t id : expired) files.erase(id);
       }
       for (int64_t id : expired) Log("job " + std::to_string(id) + ": the worker's lease expired");
@@ -995,12 +1000,12 @@ ServiceStatus JobService::LeaseJob(const Caller& caller, const v1::LeaseJobReque
   Impl& m = *impl_;
   if (caller.role == Role::kUser) return Error(ServiceCode::kPermissionDenied, "only a worker's token may lease jobs");
   if (req.has_speed()) m.LearnFromWorkerSpeed(req.speed(), req.worker());
-  const double deadline = Now() + std::clamp(req.wait_s(), 0.0, 60.0);
+  const double deadline = SteadyNow() + std::clamp(req.wait_s(), 0.0, 60.0);
   uint64_t seen = m.CurrentVersion();
   while (!m.draining && !m.stopping && !cancelled()) {
     {
       std::lock_guard lock(m.commit_mu);
-      Result<std::optional<Lease>> lease = m.store->LeaseNext(req.worker(), req.kernels(), Now(), m.options.lease_duration_s);
+      Result<std::optional<Lease>> lease = m.store->LeaseNext(req.worker(), req.kernels(), StoreNow(), m.options.lease_duration_s);
       if (!lease.ok()) return Internal(lease.status());
       if (*lease) {
         const Lease& l = **lease;
@@ -1029,7 +1034,7 @@ ServiceStatus JobService::LeaseJob(const Caller& caller, const v1::LeaseJobReque
         return ServiceStatus::Ok();
       }
     }
-    const double left = deadline - Now();
+    const double left = deadline - SteadyNow();
     if (left <= 0) break;
     seen = m.WaitEvent(seen, left);
   }
@@ -1064,7 +1069,7 @@ ServiceStatus JobService::RunJob(const Caller& caller, const std::function<bool(
     v1::ServerMessage reply;
     std::string refused;
     if (msg.has_heartbeat()) {
-      Result<bool> renewed = m.store->Renew(job_id, lease_id, Now(), m.options.lease_duration_s);
+      Result<bool> renewed = m.store->Renew(job_id, lease_id, SteadyNow(), m.options.lease_duration_s);
       if (!renewed.ok() && m.StorageFault(renewed.status()).empty()) refused = renewed.message();
       else if (!renewed.ok()) m.StorageFailed();  // neither renewed nor lost: no lease expires meanwhile
       else if (!*renewed) refused = "the lease on job " + std::to_string(job_id) + " is no longer held";
@@ -1083,7 +1088,7 @@ ServiceStatus JobService::RunJob(const Caller& caller, const std::function<bool(
       if (Status st = store_or_pause([&] { return m.Commit(job_id, lease_id, msg.iteration()); }); !st.ok()) refused = st.message();
       else {
         m.Notify();  // watchers first: the lease renewal is one more SQLite commit
-        if (Result<bool> renewed = m.store->Renew(job_id, lease_id, Now(), m.options.lease_duration_s); !renewed.ok()) m.StorageFailed();
+        if (Result<bool> renewed = m.store->Renew(job_id, lease_id, SteadyNow(), m.options.lease_duration_s); !renewed.ok()) m.StorageFailed();
       }
     } else if (msg.has_ended()) {
       if (Status st = started ? store_or_pause([&] { return m.store->SetEnded(job_id, lease_id, msg.ended()); })
@@ -1151,8 +1156,8 @@ void JobService::Drain(double timeout_s) {
   m.draining = true;
   m.Notify();
   m.Log("draining: no new leases; running jobs stop after their current iteration");
-  const double deadline = Now() + timeout_s;
-  while (m.active_streams > 0 && Now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  const double deadline = SteadyNow() + timeout_s;
+  while (m.active_streams > 0 && SteadyNow() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(20));
 }
 
 void JobService::Stop() {

@@ -30,7 +30,7 @@ CREATE TABLE jobs (
   cancel_requested INTEGER NOT NULL DEFAULT 0,
   lease_id         TEXT,
   lease_worker     TEXT,
-  lease_expire_s   REAL,
+  lease_expire_s   REAL,                        -- the server's monotonic clock (StoreTime::lease_s)
   garment_faces    INTEGER NOT NULL DEFAULT 0
 );
 CREATE INDEX jobs_by_state ON jobs(state, id);
@@ -398,7 +398,7 @@ std::map<v1::JobState, int64_t> JobStore::CountByState() {
   return out;
 }
 
-Result<std::optional<Lease>> JobStore::LeaseNext(const std::string& worker, const std::string& kernels, double now, double duration_s) {
+Result<std::optional<Lease>> JobStore::LeaseNext(const std::string& worker, const std::string& kernels, StoreTime now, double duration_s) {
   std::lock_guard lock(mu_);
   if (Status st = Exec("BEGIN IMMEDIATE"); !st.ok()) return st;
   // A job without iterations starts afresh anywhere; one with iterations resumes at its level only,
@@ -424,8 +424,8 @@ Result<std::optional<Lease>> JobStore::LeaseNext(const std::string& worker, cons
   lease.lease_id = std::to_string(lease.job_id) + "-" + std::to_string(lease.attempt) + "-" + std::to_string(++lease_counter_);
   Stmt up(db_,
           "UPDATE jobs SET state = ?, attempts = ?, lease_id = ?, lease_worker = ?, lease_expire_s = ?, update_time_s = ? WHERE id = ?");
-  up.Bind(1, static_cast<int>(v1::RUNNING)).Bind(2, lease.attempt).Bind(3, lease.lease_id).Bind(4, worker).Bind(5, now + duration_s);
-  up.Bind(6, now).Bind(7, lease.job_id);
+  up.Bind(1, static_cast<int>(v1::RUNNING)).Bind(2, lease.attempt).Bind(3, lease.lease_id).Bind(4, worker).Bind(5, now.lease_s + duration_s);
+  up.Bind(6, now.wall_s).Bind(7, lease.job_id);
   if (!up.Run()) {
     Exec("ROLLBACK");
     return SqlError("lease", up.error());
@@ -434,10 +434,10 @@ Result<std::optional<Lease>> JobStore::LeaseNext(const std::string& worker, cons
   return std::optional<Lease>(std::move(lease));
 }
 
-Result<bool> JobStore::Renew(int64_t job_id, const std::string& lease_id, double now, double duration_s) {
+Result<bool> JobStore::Renew(int64_t job_id, const std::string& lease_id, double lease_now_s, double duration_s) {
   std::lock_guard lock(mu_);
   Stmt s(db_, "UPDATE jobs SET lease_expire_s = ? WHERE id = ? AND lease_id = ? AND state = ?");
-  s.Bind(1, now + duration_s).Bind(2, job_id).Bind(3, lease_id).Bind(4, static_cast<int>(v1::RUNNING));
+  s.Bind(1, lease_now_s + duration_s).Bind(2, job_id).Bind(3, lease_id).Bind(4, static_cast<int>(v1::RUNNING));
   if (!s.Run()) return SqlError("renew lease", s.error());
   return sqlite3_changes(db_) == 1;
 }
@@ -519,17 +519,17 @@ Result<v1::JobState> JobStore::EndLease(int64_t job_id, const std::string& lease
   return state;
 }
 
-std::vector<int64_t> JobStore::ExpireLeases(double now) {
+std::vector<int64_t> JobStore::ExpireLeases(StoreTime now) {
   std::vector<std::pair<int64_t, std::string>> expired;
   {
     std::lock_guard lock(mu_);
     Stmt s(db_, "SELECT id, lease_id FROM jobs WHERE state = ? AND lease_expire_s < ?");
-    s.Bind(1, static_cast<int>(v1::RUNNING)).Bind(2, now);
+    s.Bind(1, static_cast<int>(v1::RUNNING)).Bind(2, now.lease_s);
     while (s.Step() == SQLITE_ROW) expired.emplace_back(s.Int(0), s.Text(1));
   }
   std::vector<int64_t> out;
   for (const auto& [id, lease] : expired)
-    if (EndLease(id, lease, v1::QUEUED, "the worker's lease expired (no heartbeat)", now).ok()) out.push_back(id);
+    if (EndLease(id, lease, v1::QUEUED, "the worker's lease expired (no heartbeat)", now.wall_s).ok()) out.push_back(id);
   return out;
 }
 

@@ -13,7 +13,8 @@
 // An iteration row is the acknowledgement: the server inserts it after the job's HDF5 file holds the
 // iteration, and a job's rows are always 0..iterations-1.
 //
-// Thread-safe: one connection behind a mutex. Times are Unix seconds.
+// Thread-safe: one connection behind a mutex. Times are Unix seconds, but for lease deadlines
+// (`lease_expire_s`): seconds of the server's monotonic clock (StoreTime).
 #pragma once
 
 #include <sqlite3.h>
@@ -31,6 +32,16 @@
 namespace kgd::server {
 
 inline constexpr int kSchemaVersion = 6;
+
+// A moment on the store's two clocks. `wall_s`: Unix seconds, the times users see (a job's create and
+// update times). `lease_s`: seconds of a monotonic clock (CLOCK_MONOTONIC), which a step of the wall
+// clock (settimeofday, an NTP step) does not move: lease deadlines are kept on it. They mean nothing to
+// another process or after a reboot, and a server releases every lease when it opens the store
+// (ReleaseAllLeases) before it grants any.
+struct StoreTime {
+  double wall_s = 0;
+  double lease_s = 0;
+};
 
 struct Lease {
   std::string lease_id;
@@ -70,13 +81,14 @@ class JobStore {
   std::map<v1::JobState, int64_t> CountByState();
 
   // Leases to `worker`, which runs `kernels` (core/util/pinned_kernels.h RunningKernels), the oldest
-  // queued job it may run, until now + duration: one without stored iterations, or one whose
+  // queued job it may run, until now.lease_s + duration: one without stored iterations, or one whose
   // iterations were computed with the same kernels (never, for a worker with empty `kernels`: it
   // does not say its own). nullopt when there is none: a job of another level waits in the queue.
-  Result<std::optional<Lease>> LeaseNext(const std::string& worker, const std::string& kernels, double now, double duration_s);
-  // True while `lease_id` holds `job_id` (RUNNING, not expired); extends it to now + duration. An
-  // error when the store cannot write (a full disk): the lease is then neither renewed nor lost.
-  Result<bool> Renew(int64_t job_id, const std::string& lease_id, double now, double duration_s);
+  Result<std::optional<Lease>> LeaseNext(const std::string& worker, const std::string& kernels, StoreTime now, double duration_s);
+  // True while `lease_id` holds `job_id` (RUNNING, not expired); extends it to `lease_now_s` (the lease
+  // clock, StoreTime::lease_s) + duration. An error when the store cannot write (a full disk): the
+  // lease is then neither renewed nor lost.
+  Result<bool> Renew(int64_t job_id, const std::string& lease_id, double lease_now_s, double duration_s);
   bool LeaseValid(int64_t job_id, const std::string& lease_id);
 
   // Stores iteration `metrics.iteration()` (it must be the next one), with its motions, of a job held
@@ -87,9 +99,9 @@ class JobStore {
   // cancel was requested becomes CANCELLED instead. Returns the new state.
   Result<v1::JobState> EndLease(int64_t job_id, const std::string& lease_id, v1::JobState state, const std::string& failure,
                                 double now);
-  // Leases that expired before `now` end as lost: the job is queued again, or FAILED once it has had
-  // max_attempts attempts. Returns the jobs affected.
-  std::vector<int64_t> ExpireLeases(double now);
+  // Leases whose deadline is before `now.lease_s` end as lost: the job is queued again, or FAILED once
+  // it has had max_attempts attempts. Returns the jobs affected.
+  std::vector<int64_t> ExpireLeases(StoreTime now);
   // At start-up: leases of a previous server process are void; their jobs are queued again.
   int ReleaseAllLeases(double now);
 

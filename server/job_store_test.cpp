@@ -24,6 +24,9 @@ std::string FreshPath(const std::string& name) {
 
 const std::string kV3 = "x86-64-v3", kV1 = "x86-64";
 
+// A moment at which the wall clock and the lease clock read the same.
+StoreTime At(double t) { return {t, t}; }
+
 v1::JobSpec Spec() {
   v1::JobSpec s;
   s.set_builtin_scene("sleeve_on_limb");
@@ -100,7 +103,7 @@ TEST(JobStore, AVersion2DatabaseGainsTheSolveProfileColumns) {
   {
     auto store = std::move(JobStore::Open(path)).value();
     job = *store->CreateJob(Spec(), 3, 100.0);
-    lease = (**store->LeaseNext("w1", kV3, 101.0, 1000.0)).lease_id;
+    lease = (**store->LeaseNext("w1", kV3, At(101.0), 1000.0)).lease_id;
     ASSERT_TRUE(store->AppendIteration(job, lease, Metrics(0), std::string(3, '\1')).ok());
   }
   {
@@ -160,7 +163,7 @@ TEST(JobStore, EveryIterationsMotionsRoundTripAndAVersion3DatabaseGainsTheirTabl
   {
     auto store = std::move(JobStore::Open(path)).value();
     job = *store->CreateJob(Spec(), 3, 100.0);
-    lease = (**store->LeaseNext("w1", kV3, 101.0, 1000.0)).lease_id;
+    lease = (**store->LeaseNext("w1", kV3, At(101.0), 1000.0)).lease_id;
     ASSERT_TRUE(store->AppendIteration(job, lease, Metrics(0), std::string(3, '\1')).ok());
   }
   {
@@ -219,7 +222,7 @@ TEST(JobStore, TheEndAndTheCleanedDesignRoundTripForTheHolderAndAVersion4Databas
   EXPECT_EQ((**store->GetJob(job)).ended(), "");
   EXPECT_EQ((**store->GetJob(job)).phase(), v1::JOB_PHASE_UNSPECIFIED) << "a queued job has no phase";
   EXPECT_FALSE(*store->Cleaned(job));
-  const std::string lease = (**store->LeaseNext("w1", kV3, 101.0, 1000.0)).lease_id;
+  const std::string lease = (**store->LeaseNext("w1", kV3, At(101.0), 1000.0)).lease_id;
   EXPECT_EQ((**store->GetJob(job)).phase(), v1::DESIGNING);
   EXPECT_FALSE(store->Progress(job)->ended);
   const std::string ended = "stopped at the iteration limit (5) at 92.7 % of the garment, above the budget of 10 %";
@@ -250,7 +253,7 @@ TEST(JobStore, TheEndAndTheCleanedDesignRoundTripForTheHolderAndAVersion4Databas
 TEST(JobStore, LeasesRenewsAndStoresIterationsInOrderForTheHolderOnly) {
   auto store = std::move(JobStore::Open(FreshPath("lease"))).value();
   const int64_t a = *store->CreateJob(Spec(), 3, 100.0), b = *store->CreateJob(Spec(), 3, 101.0);
-  Result<std::optional<Lease>> la = store->LeaseNext("w1", kV3, 102.0, 10.0);
+  Result<std::optional<Lease>> la = store->LeaseNext("w1", kV3, At(102.0), 10.0);
   ASSERT_TRUE(la.ok() && *la);
   EXPECT_EQ((*la)->job_id, a);  // oldest first
   EXPECT_EQ((*la)->attempt, 1);
@@ -275,22 +278,39 @@ TEST(JobStore, LeasesRenewsAndStoresIterationsInOrderForTheHolderOnly) {
 
   // Renewed leases live on; expired ones queue the job again, and it resumes where it was.
   EXPECT_TRUE(*store->Renew(a, lease, 110.0, 10.0));
-  EXPECT_TRUE(store->ExpireLeases(115.0).empty());
-  EXPECT_EQ(store->ExpireLeases(121.0), std::vector<int64_t>{a});
+  EXPECT_TRUE(store->ExpireLeases(At(115.0)).empty());
+  EXPECT_EQ(store->ExpireLeases(At(121.0)), std::vector<int64_t>{a});
   EXPECT_EQ((**store->GetJob(a)).state(), v1::QUEUED);
   EXPECT_FALSE(store->AppendIteration(a, lease, Metrics(2), "x").ok());  // the old holder is out
-  Result<std::optional<Lease>> again = store->LeaseNext("w2", kV3, 122.0, 10.0);
+  Result<std::optional<Lease>> again = store->LeaseNext("w2", kV3, At(122.0), 10.0);
   EXPECT_EQ((*again)->job_id, a);
   EXPECT_EQ((*again)->attempt, 2);
   EXPECT_EQ((*again)->iterations, 2);
   EXPECT_EQ(*store->EndLease(a, (*again)->lease_id, v1::SUCCEEDED, "", 130.0), v1::SUCCEEDED);
-  EXPECT_EQ((*store->LeaseNext("w2", kV3, 131.0, 10.0))->job_id, b);
+  EXPECT_EQ((*store->LeaseNext("w2", kV3, At(131.0), 10.0))->job_id, b);
   EXPECT_EQ(store->IntegrityCheck(), "ok");
 }
 
 // A full disk (a small tmpfs; mounting needs root, skipped otherwise): a write that fails there fails
 // as a value naming it, leaves the store as it was (the failed commit rolled back, no transaction left
 // open), and the same write succeeds once space is freed.
+// A lease's deadline is kept on the lease clock: a wall clock stepped an hour forward expires nothing,
+// one stepped an hour back keeps nothing longer, and the job's update time is the wall clock's.
+TEST(JobStore, ALeaseExpiresOnTheLeaseClockWhateverTheWallClockDoes) {
+  auto store = std::move(JobStore::Open(FreshPath("lease_clock"))).value();
+  const double wall = 1.8e9;
+  const int64_t a = *store->CreateJob(Spec(), 5, wall);
+  const Lease la = **store->LeaseNext("w1", kV3, StoreTime{wall, 100.0}, 10.0);
+  EXPECT_EQ((**store->GetJob(a)).update_time_s(), wall);
+  EXPECT_TRUE(store->ExpireLeases(StoreTime{wall + 3600, 101.0}).empty()) << "an hour forward on the wall";
+  EXPECT_TRUE(*store->Renew(a, la.lease_id, 105.0, 10.0));
+  EXPECT_TRUE(store->ExpireLeases(StoreTime{wall - 3600, 114.0}).empty());
+  EXPECT_EQ(store->ExpireLeases(StoreTime{wall - 3600, 116.0}), std::vector<int64_t>{a}) << "an hour back on the wall";
+  const v1::Job expired = **store->GetJob(a);
+  EXPECT_EQ(expired.state(), v1::QUEUED);
+  EXPECT_EQ(expired.update_time_s(), wall - 3600);
+}
+
 TEST(JobStore, AFullDiskFailsAWriteWhichRollsBackAndSucceedsOnceFreed) {
   if (geteuid() != 0) GTEST_SKIP() << "mounting a small tmpfs needs root";
   const std::filesystem::path disk = std::filesystem::temp_directory_path() / ("kgd_job_store_test_disk_" + std::to_string(getpid()));
@@ -306,7 +326,7 @@ TEST(JobStore, AFullDiskFailsAWriteWhichRollsBackAndSucceedsOnceFreed) {
   } unmount{disk};
   auto store = std::move(JobStore::Open((disk / "kgd.sqlite").string())).value();
   const int64_t a = *store->CreateJob(Spec(), 3, 100.0);
-  Result<std::optional<Lease>> la = store->LeaseNext("w1", kV3, 101.0, 1e6);
+  Result<std::optional<Lease>> la = store->LeaseNext("w1", kV3, At(101.0), 1e6);
   ASSERT_TRUE(la.ok() && *la);
   const std::string lease = (*la)->lease_id;
   ASSERT_TRUE(store->AppendIteration(a, lease, Metrics(0), std::string(5, '\1')).ok());
@@ -344,7 +364,7 @@ TEST(JobStore, AFullDiskFailsAWriteWhichRollsBackAndSucceedsOnceFreed) {
 TEST(JobStore, AJobWithIterationsIsLeasedOnlyToAWorkerOfItsKernels) {
   auto store = std::move(JobStore::Open(FreshPath("kernels"))).value();
   const int64_t a = *store->CreateJob(Spec(), 5, 100.0), b = *store->CreateJob(Spec(), 5, 101.0);
-  const Lease la = **store->LeaseNext("v3", kV3, 102.0, 10.0);
+  const Lease la = **store->LeaseNext("v3", kV3, At(102.0), 10.0);
   ASSERT_EQ(la.job_id, a);
   EXPECT_FALSE(store->SetKernels(a, "another lease", kV1).ok());
   ASSERT_TRUE(store->SetKernels(a, la.lease_id, kV3).ok());
@@ -352,40 +372,40 @@ TEST(JobStore, AJobWithIterationsIsLeasedOnlyToAWorkerOfItsKernels) {
   EXPECT_EQ((**store->GetJob(a)).kernels(), kV3);
   ASSERT_EQ(*store->EndLease(a, la.lease_id, v1::QUEUED, "", 103.0), v1::QUEUED);  // released (a drain)
 
-  const Lease lb = **store->LeaseNext("v1", kV1, 104.0, 10.0);
+  const Lease lb = **store->LeaseNext("v1", kV1, At(104.0), 10.0);
   EXPECT_EQ(lb.job_id, b) << "a new job goes to any level, past the older one waiting";
   ASSERT_TRUE(store->SetKernels(b, lb.lease_id, kV1).ok());
-  EXPECT_FALSE(*store->LeaseNext("v1", kV1, 105.0, 10.0)) << "job a's iteration ran at x86-64-v3";
-  EXPECT_FALSE(*store->LeaseNext("old", "", 105.0, 10.0)) << "a worker that does not say its level resumes nothing";
+  EXPECT_FALSE(*store->LeaseNext("v1", kV1, At(105.0), 10.0)) << "job a's iteration ran at x86-64-v3";
+  EXPECT_FALSE(*store->LeaseNext("old", "", At(105.0), 10.0)) << "a worker that does not say its level resumes nothing";
   EXPECT_EQ((**store->GetJob(a)).state(), v1::QUEUED);
-  const Lease again = **store->LeaseNext("v3", kV3, 106.0, 10.0);
+  const Lease again = **store->LeaseNext("v3", kV3, At(106.0), 10.0);
   EXPECT_EQ(again.job_id, a);
   EXPECT_EQ(again.iterations, 1);
 
   // Both leases expire: a waits again for x86-64-v3; b, started without an iteration, goes to any.
   auto expired = [&](double now) {
-    std::vector<int64_t> ids = store->ExpireLeases(now);
+    std::vector<int64_t> ids = store->ExpireLeases(At(now));
     std::sort(ids.begin(), ids.end());
     return ids;
   };
   EXPECT_EQ(expired(200.0), (std::vector<int64_t>{a, b}));
-  const Lease lb2 = **store->LeaseNext("v3", kV3, 201.0, 10.0);
+  const Lease lb2 = **store->LeaseNext("v3", kV3, At(201.0), 10.0);
   EXPECT_EQ(lb2.job_id, a) << "the oldest it may run";
-  const Lease lb3 = **store->LeaseNext("v3", kV3, 201.0, 10.0);
+  const Lease lb3 = **store->LeaseNext("v3", kV3, At(201.0), 10.0);
   EXPECT_EQ(lb3.job_id, b) << "job b stored no iteration at x86-64";
   EXPECT_EQ(expired(300.0), (std::vector<int64_t>{a, b}));
-  EXPECT_EQ((**store->LeaseNext("v1", kV1, 301.0, 10.0)).job_id, b);
-  EXPECT_FALSE(*store->LeaseNext("v1", kV1, 301.0, 10.0));
+  EXPECT_EQ((**store->LeaseNext("v1", kV1, At(301.0), 10.0)).job_id, b);
+  EXPECT_FALSE(*store->LeaseNext("v1", kV1, At(301.0), 10.0));
   const int64_t c = *store->CreateJob(Spec(), 5, 302.0);
-  EXPECT_EQ((**store->LeaseNext("old", "", 303.0, 10.0)).job_id, c) << "a new job goes to a worker that does not say its level";
-  EXPECT_EQ((**store->LeaseNext("v3", kV3, 304.0, 10.0)).job_id, a);
+  EXPECT_EQ((**store->LeaseNext("old", "", At(303.0), 10.0)).job_id, c) << "a new job goes to a worker that does not say its level";
+  EXPECT_EQ((**store->LeaseNext("v3", kV3, At(304.0), 10.0)).job_id, a);
   // Iterations of no recorded level resume nowhere, not even on a worker that does not say its own.
   const int64_t d = *store->CreateJob(Spec(), 5, 305.0);
-  const Lease ld = **store->LeaseNext("old", "", 306.0, 10.0);
+  const Lease ld = **store->LeaseNext("old", "", At(306.0), 10.0);
   ASSERT_EQ(ld.job_id, d);
   ASSERT_TRUE(store->AppendIteration(d, ld.lease_id, Metrics(0), std::string(3, '\1')).ok());
   ASSERT_EQ(*store->EndLease(d, ld.lease_id, v1::QUEUED, "", 307.0), v1::QUEUED);
-  EXPECT_FALSE(*store->LeaseNext("old", "", 308.0, 10.0));
+  EXPECT_FALSE(*store->LeaseNext("old", "", At(308.0), 10.0));
 }
 
 // A version-5 database (no kernels column) migrates: a job that stored iterations then ran them at the
@@ -397,7 +417,7 @@ TEST(JobStore, AVersion5DatabasesStartedJobsReadX8664) {
     auto store = std::move(JobStore::Open(path)).value();
     started = *store->CreateJob(Spec(), 3, 100.0);
     queued = *store->CreateJob(Spec(), 3, 100.5);
-    const Lease l = **store->LeaseNext("w1", kV3, 101.0, 1000.0);
+    const Lease l = **store->LeaseNext("w1", kV3, At(101.0), 1000.0);
     ASSERT_TRUE(store->AppendIteration(started, l.lease_id, Metrics(0), std::string(3, '\1')).ok());
     ASSERT_TRUE(store->EndLease(started, l.lease_id, v1::QUEUED, "", 102.0).ok());
     sqlite3* db = nullptr;
@@ -410,18 +430,18 @@ TEST(JobStore, AVersion5DatabasesStartedJobsReadX8664) {
   auto store = std::move(opened).value();
   EXPECT_EQ((**store->GetJob(started)).kernels(), kV1);
   EXPECT_EQ((**store->GetJob(queued)).kernels(), "");
-  EXPECT_EQ((**store->LeaseNext("v3", kV3, 103.0, 10.0)).job_id, queued);
-  EXPECT_FALSE(*store->LeaseNext("v3", kV3, 103.0, 10.0));
-  EXPECT_EQ((**store->LeaseNext("v1", kV1, 104.0, 10.0)).job_id, started);
+  EXPECT_EQ((**store->LeaseNext("v3", kV3, At(103.0), 10.0)).job_id, queued);
+  EXPECT_FALSE(*store->LeaseNext("v3", kV3, At(103.0), 10.0));
+  EXPECT_EQ((**store->LeaseNext("v1", kV1, At(104.0), 10.0)).job_id, started);
 }
 
 TEST(JobStore, GivesUpAfterMaxAttemptsAndCancelsQueuedAndRunningJobs) {
   auto store = std::move(JobStore::Open(FreshPath("attempts"))).value();
   const int64_t a = *store->CreateJob(Spec(), 2, 0.0);
   for (int attempt = 1; attempt <= 2; ++attempt) {
-    Result<std::optional<Lease>> l = store->LeaseNext("w", kV3, 10.0 * attempt, 1.0);
+    Result<std::optional<Lease>> l = store->LeaseNext("w", kV3, At(10.0 * attempt), 1.0);
     ASSERT_TRUE(*l);
-    store->ExpireLeases(10.0 * attempt + 2);
+    store->ExpireLeases(At(10.0 * attempt + 2));
   }
   const v1::Job failed = **store->GetJob(a);
   EXPECT_EQ(failed.state(), v1::FAILED);
@@ -430,7 +450,7 @@ TEST(JobStore, GivesUpAfterMaxAttemptsAndCancelsQueuedAndRunningJobs) {
   const int64_t queued = *store->CreateJob(Spec(), 2, 0.0);
   EXPECT_EQ((**store->Cancel(queued, 1.0)).state(), v1::CANCELLED);
   const int64_t running = *store->CreateJob(Spec(), 2, 0.0);
-  Result<std::optional<Lease>> l = store->LeaseNext("w", kV3, 1.0, 100.0);
+  Result<std::optional<Lease>> l = store->LeaseNext("w", kV3, At(1.0), 100.0);
   ASSERT_EQ((*l)->job_id, running);
   const v1::Job asked = **store->Cancel(running, 2.0);
   EXPECT_EQ(asked.state(), v1::RUNNING);  // until the worker stops
