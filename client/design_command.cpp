@@ -156,6 +156,7 @@ int RunDesign(const DesignOptions& o) {
   const bool bar = !o.json && isatty(STDOUT_FILENO);
   g_interrupted = false;
   InstallOutOfMemoryReserve();
+  ReportUnexpectedExit("kgd design", "the iterations stored before are in " + path + "; continue with: kgd design --resume " + path);
   std::signal(SIGINT, OnInterrupt);
   std::signal(SIGTERM, OnInterrupt);
 

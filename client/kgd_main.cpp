@@ -6,6 +6,7 @@
 
 #include "client/body_command.h"
 #include "client/design_command.h"
+#include "client/out_of_memory.h"
 #include "client/region_command.h"
 #include "client/service_commands.h"
 #include "client/simulate_command.h"
@@ -38,8 +39,11 @@ int Run(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   try {
-    return Run(argc, argv);
+    const int code = Run(argc, argv);
+    kgd::cli::ExitingNormally();
+    return code;
   } catch (const std::bad_alloc&) {
+    kgd::cli::ExitingNormally();
     // Out of memory: the command's files were closed on the way here (a design file keeps every
     // iteration it stored, and `kgd design --resume` continues it). Exit 4, as for a failed write.
     std::fputs("kgd: out of memory: the command stopped (a design job's file keeps the iterations it stored; "

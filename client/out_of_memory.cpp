@@ -1,8 +1,13 @@
 #include "client/out_of_memory.h"
 
+#include <unistd.h>
+
 #include <atomic>
+#include <cstdio>
 #include <cstdlib>
+#include <mutex>
 #include <new>
+#include <string>
 
 namespace kgd::cli {
 namespace {
@@ -24,7 +29,35 @@ void OnAllocationFailure() {
   throw std::bad_alloc();
 }
 
+std::atomic<bool> exiting_normally{false};
+std::mutex note_mu;
+std::string unexpected_what, unexpected_note;
+
+void OnExit() {
+  if (exiting_normally) return;
+  std::string what, note;
+  {
+    std::lock_guard lock(note_mu);
+    what = unexpected_what;
+    note = unexpected_note;
+  }
+  std::fflush(stdout);
+  std::fprintf(stderr, "kgd: %s stopped inside a library%s; %s\n", what.c_str(), OutOfMemory() ? " (out of memory)" : "", note.c_str());
+  std::fflush(stderr);
+  _exit(4);
+}
+
 }  // namespace
+
+void ReportUnexpectedExit(const std::string& what, const std::string& note) {
+  static const bool registered = [] { return std::atexit(OnExit) == 0; }();
+  (void)registered;
+  std::lock_guard lock(note_mu);
+  unexpected_what = what;
+  unexpected_note = note;
+}
+
+void ExitingNormally() { exiting_normally = true; }
 
 void InstallOutOfMemoryReserve() {
   static const bool installed = [] {
