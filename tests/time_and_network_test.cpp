@@ -95,8 +95,9 @@ void ExpectSameAsLocal(const std::string& server_file, std::future<Result<Design
   }
 }
 
-// A kgd-server (optionally under libfaketime, its wall clock `offset_s` from the real one, changed at run
-// time through a file) and kgd-worker processes, each worker connecting to the given address.
+// A kgd-server and kgd-worker processes, each worker connecting to the given address; with `fake_time`
+// all of them under libfaketime, their wall clock `offset_s` from the real one, changed at run time
+// through a file (one machine's clock, stepped for every program on it).
 class Service {
  public:
   Service(const std::string& name, bool fake_time, double offset_s = 0)
@@ -104,15 +105,15 @@ class Service {
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     address_ = "127.0.0.1:" + std::to_string(FreePort());
-    std::vector<std::string> args;
     if (fake_time) {
       SetClockOffset(offset_s);
       // libfaketime reads the offset from the file at every clock call (FAKETIME_NO_CACHE). CLOCK_MONOTONIC
       // stays real (DONT_FAKE_MONOTONIC): stepping a machine's clock (settimeofday, an NTP step, an
       // administrator's `date -s`) moves CLOCK_REALTIME alone.
-      args = {"/usr/bin/env", std::string("LD_PRELOAD=") + kFakeTime, "FAKETIME_TIMESTAMP_FILE=" + dir_ + "/faketime",
-              "FAKETIME_NO_CACHE=1", "DONT_FAKE_MONOTONIC=1"};
+      clock_ = {"/usr/bin/env", std::string("LD_PRELOAD=") + kFakeTime, "FAKETIME_TIMESTAMP_FILE=" + dir_ + "/faketime",
+                "FAKETIME_NO_CACHE=1", "DONT_FAKE_MONOTONIC=1"};
     }
+    std::vector<std::string> args = clock_;
     for (const std::string& a : {std::string(KGD_SERVER_BINARY), std::string("--data"), dir_ + "/data", std::string("--listen"), address_,
                                  std::string("--lease-s"), std::to_string(kLeaseS)})
       args.push_back(a);
@@ -135,7 +136,10 @@ class Service {
 
   int StartWorker(const std::string& server_address) {
     const int k = static_cast<int>(workers_.size());
-    workers_.push_back(Process::Spawn({KGD_WORKER_BINARY, "--server", server_address, "--name", "w" + std::to_string(k)}, WorkerLogPath(k)));
+    std::vector<std::string> args = clock_;
+    for (const std::string& a : {std::string(KGD_WORKER_BINARY), std::string("--server"), server_address, std::string("--name"), "w" + std::to_string(k)})
+      args.push_back(a);
+    workers_.push_back(Process::Spawn(args, WorkerLogPath(k)));
     return k;
   }
   int StartWorker() { return StartWorker(address_); }
@@ -175,6 +179,7 @@ class Service {
 
  private:
   std::string dir_, address_;
+  std::vector<std::string> clock_;  // the command line's start that runs a program under the test's clock
   Process server_;
   std::vector<Process> workers_;
   std::shared_ptr<grpc::Channel> channel_;
@@ -292,8 +297,9 @@ int PortOf(const std::string& address) { return std::atoi(address.substr(address
 
 bool HaveFakeTime() { return fs::exists(kFakeTime); }
 
-// The server's wall clock steps an hour forward mid-job, and later an hour back, while its worker is
-// alive: no lease expires, the job is leased once and ends at the local run's design.
+// The wall clock of the server and its workers steps an hour forward mid-job, and later an hour back,
+// while the job's worker is alive: no lease expires, the job is leased once and ends at the local run's
+// design.
 TEST(TimeAndNetwork, AServerClockSteppingAnHourForwardAndBackExpiresNoLiveLease) {
   if (!HaveFakeTime()) GTEST_SKIP() << kFakeTime << " is missing: scripts/setup.sh installs Debian's faketime";
   constexpr int kIterations = 60;
@@ -325,10 +331,11 @@ TEST(TimeAndNetwork, AServerClockSteppingAnHourForwardAndBackExpiresNoLiveLease)
   EXPECT_EQ(after.attempts(), 1) << service.Logs();
   EXPECT_EQ(Count(service.Log(), "job " + std::to_string(job.id()) + " leased to"), 1u) << service.Logs();
   EXPECT_NEAR(after.update_time_s(), WallNow() + kDay, 60) << "the job's times are the server's wall clock";
+  EXPECT_NEAR(after.last().report_time_s(), WallNow() + kDay, 60) << "the workers run under libfaketime";
   ExpectSameAsLocal(service.DataFile(job.id()), local);
 }
 
-// A worker frozen (SIGSTOP) just before the server's clock steps an hour back: its lease still expires
+// A worker frozen (SIGSTOP) just before the machine's clock steps an hour back: its lease still expires
 // a lease duration after its last heartbeat (not an hour later), and the job moves on once, to the other
 // worker, ending at the local run's design.
 TEST(TimeAndNetwork, ALostWorkersLeaseExpiresOnTimeAfterTheServerClockStepsBack) {
