@@ -1019,6 +1019,21 @@ ServiceStatus JobService::LeaseJob(const Caller& caller, const v1::LeaseJobReque
         if (l.iterations > 0) {
           Result<std::vector<v1::IterationMetrics>> history = m.store->Metrics(l.job_id, 0, l.iterations);
           Result<DesignFile> f = ReadDesignFile(m.FilePath(l.job_id), {.arrays = true, .only_iteration = l.iterations - 1});
+          if (!f.ok()) {
+            // A file whose writer's last write failed (marked open for write, or torn) is rebuilt from
+            // the iterations that read back, cut to the acknowledged ones, and read again.
+            Result<std::unique_ptr<DesignFileWriter>> repaired = DesignFileWriter::Reopen(m.FilePath(l.job_id), l.iterations);
+            if (repaired.ok()) {
+              repaired->reset();
+              f = ReadDesignFile(m.FilePath(l.job_id), {.arrays = true, .only_iteration = l.iterations - 1});
+            } else if (!m.StorageFault(repaired.status()).empty()) {
+              // The disk fails the repair: the job waits in the queue (this lease counts as an attempt).
+              m.StorageFailed();
+              m.store->EndLease(l.job_id, l.lease_id, v1::QUEUED, "cannot resume yet: " + repaired.message(), Now());
+              m.Notify();
+              return Error(ServiceCode::kUnavailable, "job " + std::to_string(l.job_id) + " cannot resume yet: " + repaired.message());
+            }
+          }
           if (!history.ok() || !f.ok() || static_cast<int>(f->iterations.size()) < l.iterations) {
             const std::string why = !history.ok() ? history.message() : !f.ok() ? f.message() : "the design file misses iterations";
             m.store->EndLease(l.job_id, l.lease_id, v1::FAILED, "cannot resume: " + why, Now());

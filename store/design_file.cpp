@@ -166,16 +166,20 @@ Id WriterAccess() {
 }
 
 // Clears the superblock's "open for write" flags (HDF5's fapl property "clear_status_flags", which
-// h5clear sets): true when the file opened and closed with them cleared.
-bool ClearWriteMark(const std::string& path) {
+// h5clear sets). An error only when the system failed the write (a full or failing disk: the message
+// names it, e.g. "No space left on device (ENOSPC)"); a file that does not open for other reasons is
+// left to the readers to judge.
+Status ClearWriteMark(const std::string& path) {
   Id fapl = WriterAccess();
   hbool_t clear = true;
-  if (H5Pset(fapl, "clear_status_flags", &clear) < 0) return false;
-  Id file(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl), H5Fclose);
-  if (!file.ok()) return false;
-  file.reset();
+  if (H5Pset(fapl, "clear_status_flags", &clear) < 0) return Status::Ok();
   ClearHdf5Error();
-  return true;
+  Id file(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl), H5Fclose);
+  const bool closed = file.ok() && file.Close();
+  const bool system_error = LastHdf5Errno() != 0;
+  const std::string error = LastHdf5Error();
+  if (!closed && system_error) return Fail(path, "cannot clear its \"open for write\" mark: " + error);
+  return Status::Ok();
 }
 
 // A design file open for reading: the header read and checked, iterations read one at a time.
@@ -515,6 +519,8 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Create(const std::st
   // nothing half written is left to be read or resumed.
   auto failed = [&](const std::string& what) {
     const Status st = Fail(path, what + ": " + LastHdf5Error());
+    // The group before the file: HDF5 1.10 crashes closing a group of a file whose close failed.
+    m.iterations.reset();
     m.file.reset();
     std::error_code ec;
     std::filesystem::remove(path, ec);
@@ -615,7 +621,7 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
       // superblock marked "open for write" without the SWMR flag, which SWMR readers refuse too. The
       // lock above is held, so no writer has the file: the mark is cleared (what h5clear does) and
       // the file rebuilt from the iterations that read back.
-      ClearWriteMark(path);
+      KGD_RETURN_IF_ERROR(ClearWriteMark(path));
       Result<std::unique_ptr<DesignFileReader>> r = OpenDesignFileReader(path, /*salvage=*/true);
       if (r.ok()) {
         if (keep > static_cast<int>((*r)->marker_rows))

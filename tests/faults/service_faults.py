@@ -4,8 +4,8 @@
 The service half of tests/faults/fault_injection.py, with its fault kinds, its job and its reading of a
 design file (`kgd designs --json`). Each run starts `kgd serve --data DIR --listen 127.0.0.1:0` (one
 in-process worker, no HTTP door) under `fiu-run -x` failing one kind of call at random with the run's
-seed (FIU_PRNG_SEED); allocation faults are enabled through fiu-ctrl once the job has stored its first
-iteration. A client without faults submits the job (`kgd submit`) and follows it (`kgd job N --json`,
+seed (FIU_PRNG_SEED); allocation faults, and the kinds "write, from iteration 1" and "open, from
+iteration 1", are enabled through fiu-ctrl once the job has stored its first iteration. A client without faults submits the job (`kgd submit`) and follows it (`kgd job N --json`,
 every 0.2 s). Every run is judged against the uninterrupted local `kgd design` of the same job:
 
   same design     the job SUCCEEDED under faults and its design file (DATA/jobs/job-N.h5) holds the
@@ -16,8 +16,9 @@ every 0.2 s). Every run is judged against the uninterrupted local `kgd design` o
   stopped         the server exited naming an error, or, under allocation faults only, was killed by
                   a signal (gRPC aborts on a failed allocation); started again on the same data folder
                   without faults, the job ended with the same design
-  named error     the job FAILED, or the server refused it or refused to start, with a message; what
-                  the job stored reads back (`kgd check`) and is the uninterrupted run's first iterations
+  named error     the job FAILED, or the server refused it, with a message; what the job stored, once
+                  the server has started again on the folder without faults, reads back (`kgd check`)
+                  and is the uninterrupted run's first iterations
   anything else   a crash under a kind other than allocation, a server or job that answers nothing or
                   makes no progress within the time allowed, a job that ends with another design or no
                   design, a failure without a message, or a restart without faults that does not end at
@@ -45,6 +46,11 @@ import time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import fault_injection as fi  # noqa: E402  (the local half: fault kinds, job, reading a design file)
 
+# The local half's kinds, and write and open faults enabled once the job has stored its first iteration
+# (from the start, most of them stop the server at its first write or open, before any job runs).
+KINDS = {kind: (kind, kind in fi.MID_RUN) for kind in fi.KINDS}
+KINDS.update({"write, from iteration 1": ("write", True), "open, from iteration 1": ("open", True)})
+DEFAULT_KINDS = ["write", "write, from iteration 1", "fsync", "open", "open, from iteration 1", "mmap", "allocation"]
 OUTCOMES = ["same design", "paused", "stopped", "named error", "anything else"]
 START_S = 30  # a server prints "listening on" within this
 FAULTY_S = 45  # the job under faults ends within this, or the run goes on without faults
@@ -210,12 +216,12 @@ def finish_without_faults(kgd, ref, data, log, env, job_id):
 
 def one_run(kgd, ref, work, env, kind, seed, errno, probability, index):
     """(outcome, detail) of one run."""
-    points, _ = fi.KINDS[kind]
+    points, _ = fi.KINDS[KINDS[kind][0]]
     commands = [f"enable_random name={point},probability={probability},failinfo={errno}" for point in points]
-    data = os.path.join(work, f"run{index:04d}_{kind}")
+    data = os.path.join(work, f"run{index:04d}_{KINDS[kind][0]}")
     log = data + ".log"
     faulty_env = dict(env, FIU_PRNG_SEED=str(seed))
-    mid_run = kind in fi.MID_RUN
+    mid_run = KINDS[kind][1]
     ctrl = os.path.join(work, f"fiu-{index:04d}") if mid_run else None
     server = Server(kgd, data, log, faulty_env, fiu=[] if mid_run else commands, ctrl=ctrl)
     job_id, job, paused, note = None, None, [], ""
@@ -257,6 +263,14 @@ def one_run(kgd, ref, work, env, kind, seed, errno, probability, index):
             if state == "FAILED":
                 if not job.get("failure"):
                     return "anything else", "FAILED without a message"
+                # What it stored, as the next server finds it: the server started again on the folder
+                # (without faults) repairs the design files a failed writer left before it reads them.
+                server.stop()
+                clean = Server(kgd, data, log, env)
+                listening = clean.address(START_S)
+                clean.stop()
+                if listening is None:
+                    return "anything else", f"FAILED ({job['failure'][:150]}), and the server does not start again: {clean.last_words()}"
                 wrong = stored_prefix(kgd, ref, os.path.join(data, "jobs", f"job-{job_id}.h5"))
                 if wrong:
                     return "anything else", f"FAILED ({job['failure'][:150]}), and {wrong}"
@@ -301,7 +315,7 @@ def main():
     p.add_argument("--kgd", required=True)
     p.add_argument("--runs", type=int, default=20)
     p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--kinds", default=",".join(fi.KINDS), help="comma-separated: " + ", ".join(fi.KINDS))
+    p.add_argument("--kinds", default=";".join(DEFAULT_KINDS), help="semicolon-separated: " + "; ".join(KINDS))
     p.add_argument("--probability", type=float, default=0.01, help="of each call of the chosen kind failing")
     p.add_argument("--keep", help="keep the runs' data folders and logs in this folder")
     p.add_argument("--write-docs", metavar="FILE", help="write the summary into FILE's block reliability-faults-service")
@@ -320,7 +334,10 @@ def main():
         print(f"service_faults: the reference run failed (exit {code}): {out[-500:]}")
         return 1
     ref = fi.designs(kgd, ref_path)
-    kinds = [k for k in a.kinds.split(",") if k]
+    kinds = [k.strip() for k in a.kinds.split(";") if k.strip()]
+    unknown = [k for k in kinds if k not in KINDS]
+    if unknown:
+        p.error(f"unknown fault kinds {unknown}: choose from " + "; ".join(KINDS))
     rng = random.Random(a.seed)
     counts = {k: dict({"runs": 0}, **{o: 0 for o in OUTCOMES}) for k in kinds}
     defects, samples = [], {}
@@ -328,7 +345,7 @@ def main():
     for i in range(a.runs):
         kind = kinds[i % len(kinds)]
         seed = rng.randrange(1, 2**31)
-        errno = rng.choice(fi.KINDS[kind][1])
+        errno = rng.choice(fi.KINDS[KINDS[kind][0]][1])
         t = time.monotonic()
         outcome, detail = one_run(kgd, ref, work, env, kind, seed, errno, a.probability, i)
         print(f"run {i} ({kind}, errno {errno}, FIU_PRNG_SEED={seed}): {outcome}{': ' + detail if detail else ''} "
@@ -346,7 +363,7 @@ def main():
                     shutil.rmtree(path, ignore_errors=True) if os.path.isdir(path) else os.remove(path)
     elapsed = time.monotonic() - started
     lines = [f"{a.runs} runs of `kgd serve` (one in-process worker) under `fiu-run -x` from seed {a.seed}, each call of the run's "
-             f"kind failing with probability {a.probability} (a seed per run; allocation from the job's first stored iteration), "
+             f"kind failing with probability {a.probability} (a seed per run; allocation, and the rows 'from iteration 1', enabled through fiu-ctrl once the job has stored its first iteration), "
              f"each running `kgd submit {' '.join(fi.JOB)}` judged against the uninterrupted local `kgd design` "
              f"({elapsed / max(a.runs, 1):.1f} s a run):", "",
              "| fault kind | runs | same design | paused, then same design | server stopped, restarted: same design | named error | anything else |",
