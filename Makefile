@@ -85,9 +85,9 @@ FAULT_SEED ?= 1
 faults: build
 	status=0; \
 	KGD_CACHE_DIR=$(abspath $(BUILD))/test-cache python3 tests/faults/fault_injection.py --kgd $(BUILD)/client/kgd --runs $(FAULT_RUNS) \
-	  --seed $(FAULT_SEED) --probability 0.01 --write-docs docs/RELIABILITY.md || status=1; \
+	  --seed $(FAULT_SEED) --write-docs docs/RELIABILITY.md || status=1; \
 	KGD_CACHE_DIR=$(abspath $(BUILD))/test-cache python3 tests/faults/service_faults.py --kgd $(BUILD)/client/kgd --runs $(SERVICE_FAULT_RUNS) \
-	  --seed $(FAULT_SEED) --probability 0.01 --write-docs docs/RELIABILITY.md || status=1; \
+	  --seed $(FAULT_SEED) --write-docs docs/RELIABILITY.md || status=1; \
 	exit $$status
 
 # Every benchmark once (about 20 minutes on two cores); every table they measure is written into

@@ -41,6 +41,9 @@ KINDS = {
     "mmap": (["posix/mm/mmap"], [12]),  # ENOMEM
     "allocation": (["libc/mm/malloc", "libc/mm/calloc", "libc/mm/realloc"], [12]),  # ENOMEM
 }
+# How likely each call of a kind fails: a job makes thousands of writes and allocations, but opens its
+# files and maps memory only tens of times, so those fail more often, for a fault to land in most runs.
+PROBABILITY = {"write": 0.01, "fsync": 0.3, "open": 0.2, "mmap": 0.2, "allocation": 0.01}
 
 
 def run(cmd, env=None, timeout=120):
@@ -129,7 +132,7 @@ def main():
     p.add_argument("--runs", type=int, default=40)
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--kinds", default=",".join(KINDS), help="comma-separated: " + ", ".join(KINDS))
-    p.add_argument("--probability", type=float, default=0.02, help="of each call of the chosen kind failing")
+    p.add_argument("--probability", type=float, help="of each call of the chosen kind failing (default: per kind, PROBABILITY)")
     p.add_argument("--keep", help="keep the runs' files in this folder")
     p.add_argument("--write-docs", metavar="FILE", help="write the summary into FILE's block reliability-faults (docs/RELIABILITY.md)")
     a = p.parse_args()
@@ -155,7 +158,8 @@ def main():
         seed = rng.randrange(1, 2**31)
         points, errnos = KINDS[kind]
         errno = rng.choice(errnos)
-        commands = [f"enable_random name={point},probability={a.probability},failinfo={errno}" for point in points]
+        probability = a.probability if a.probability is not None else PROBABILITY[kind]
+        commands = [f"enable_random name={point},probability={probability},failinfo={errno}" for point in points]
         path = os.path.join(work, f"run{i:04d}_{kind}.h5")
         env = dict(os.environ, FIU_PRNG_SEED=str(seed), KGD_CACHE_DIR=os.path.join(work, "cache"))
         job = [kgd, "design", *JOB, "--json", "--out", path]
@@ -178,7 +182,8 @@ def main():
                 if f.startswith(f"run{i:04d}_"):
                     os.remove(os.path.join(work, f))
     lines = [f"{a.runs} runs of `kgd design {' '.join(JOB)}` from seed {a.seed}, each call of the run's kind failing with "
-             f"probability {a.probability} (`fiu-run -x`, a seed per run), each run judged against the uninterrupted run:", "",
+             f"probability {a.probability if a.probability is not None else ', '.join(f'{k} {PROBABILITY[k]}' for k in kinds)} "
+             "(`fiu-run -x`, a seed per run), each run judged against the uninterrupted run:", "",
              "| fault kind | runs | same design | named error | anything else |", "|---|---:|---:|---:|---:|"]
     total = {"runs": 0, "same design": 0, "named error": 0, "anything else": 0}
     for k in kinds:
@@ -194,7 +199,7 @@ def main():
     if a.write_docs:
         root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
         machine = subprocess.run([kgd, "machine"], capture_output=True, text=True).stdout.strip()
-        command = f"python3 tests/faults/fault_injection.py --runs {a.runs} --seed {a.seed} --probability {a.probability}"
+        command = f"python3 tests/faults/fault_injection.py --runs {a.runs} --seed {a.seed}" + (f" --probability {a.probability}" if a.probability is not None else "")
         subprocess.run([sys.executable, os.path.join(root, "scripts", "generated_block.py"), "replace", a.write_docs, "reliability-faults",
                         "--command", command, "--machine", machine], input="\n".join(lines) + "\n", text=True, check=True)
     if not a.keep:
