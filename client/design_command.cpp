@@ -69,6 +69,14 @@ int Fail(const char* command, const std::string& message, int code = 2) {
   return code;
 }
 
+// A design file that could not be read: exit 5 when it is damaged (an iteration, its header or the
+// HDF5 structure), 2 otherwise (no such file, not a design file, an iteration it does not hold).
+int FailReading(const char* command, const std::string& message) {
+  for (const char* damage : {" is damaged", " are damaged", "(damaged", "inconsistent shapes", "cannot open the HDF5 file"})
+    if (message.find(damage) != std::string::npos) return Fail(command, message, kExitDamaged);
+  return Fail(command, message);
+}
+
 // One line per motion of a scene with several: role, weight, reinforced energy and density ratio.
 void PrintMotions(const BesoIteration& it) {
   for (const MotionMetrics& m : it.motions)
@@ -117,7 +125,15 @@ int RunDesign(const DesignOptions& o) {
     path = o.resume;
     // Reopened first: a file left by a killed run is rebuilt from its intact iterations before any is read.
     Result<std::unique_ptr<DesignFileWriter>> w = DesignFileWriter::Reopen(path);
-    if (!w.ok()) return Fail("design", w.message(), kExitStorage);
+    if (!w.ok()) {
+      const std::string& e = w.message();
+      const auto has = [&e](const char* what) { return e.find(what) != std::string::npos; };
+      if (has(": no such file") || has("not an HDF5 file") || has("not a kgd design file") || has("format_version")) return Fail("design", e);
+      if (has("/garment") || has("/job "))
+        return Fail("design", e + ": the file's header (its job and garment) is damaged, so none of its iterations can be kept; run the job again",
+                    kExitDamaged);
+      return Fail("design", e, kExitStorage);
+    }
     writer = std::move(w).value();
     if (!writer->repair_note().empty()) std::fprintf(stderr, "kgd design: %s: %s\n", path.c_str(), writer->repair_note().c_str());
     const int n = writer->num_iterations();
@@ -330,7 +346,7 @@ int RunCheck(const std::vector<std::string>& paths, bool json) {
 int RunDesigns(const std::string& path, bool json) {
   // Verified first: a history is printed only when every iteration it lists reads back whole.
   Result<DesignFileCheck> check = CheckDesignFile(path);
-  if (!check.ok()) return Fail("designs", check.message());
+  if (!check.ok()) return FailReading("designs", check.message());
   if (!check->ok()) return Fail("designs", DescribeDamage(path, *check), kExitDamaged);
   Result<DesignFile> f = ReadDesignFile(path, {.arrays = false});
   if (!f.ok()) return Fail("designs", f.message());
@@ -451,7 +467,7 @@ int RunEvaluateOnBodies(const StoredDesign& sd, const std::string& path, const s
 
 int RunEvaluate(const std::string& path, int k, bool json, const std::string& on) {
   Result<StoredDesign> sd = LoadStoredDesign(path, k);
-  if (!sd.ok()) return Fail("evaluate", sd.message());
+  if (!sd.ok()) return FailReading("evaluate", sd.message());
   if (!on.empty() || !sd->scene.bodies.empty()) return RunEvaluateOnBodies(*sd, path, on, json);
   SceneSpec designed = sd->scene, full = sd->scene;
   designed.design = sd->file.iterations[sd->iteration].design;
@@ -507,7 +523,7 @@ int RunEvaluate(const std::string& path, int k, bool json, const std::string& on
 
 int RunBaselines(const std::string& path, int k, double angle_deg, bool angle_given, const std::string& out, bool json) {
   Result<StoredDesign> sd = LoadStoredDesign(path, k);
-  if (!sd.ok()) return Fail("baselines", sd.message());
+  if (!sd.ok()) return FailReading("baselines", sd.message());
   const DesignFileHeader& h = sd->file.header;
   Result<DesignFile> first = ReadDesignFile(path, {.arrays = true, .only_iteration = 0});
   if (!first.ok()) return Fail("baselines", first.message());
@@ -670,7 +686,7 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
       r = scene.ok() ? ExportScene(*scene, ex->out, o) : Result<ExportReport>(scene.status());
     }
     if (!r.ok()) {
-      *exit_code = Fail("export", r.message());
+      *exit_code = FailReading("export", r.message());
       return;
     }
     if (ex->json) {

@@ -736,6 +736,9 @@ ServiceStatus JobService::CancelJob(const Caller& caller, int64_t id, v1::Job* o
   v1::Job visible;
   if (ServiceStatus st = m.FindJob(caller, id, &visible); !st.ok()) return st;
   Result<std::optional<v1::Job>> job = m.store->Cancel(id, Now());
+  if (!job.ok() && !m.StorageFault(job.status()).empty())
+    return Error(ServiceCode::kUnavailable, "job " + std::to_string(id) + " cannot be cancelled now: " + m.StorageFault(job.status()) +
+                                                "; cancel it again once the server can store (the job waits, paused, meanwhile)");
   if (!job.ok()) return Internal(job.status());
   if (!*job) return Error(ServiceCode::kNotFound, "job " + std::to_string(id) + " does not exist");
   *out = **job;
@@ -1150,7 +1153,9 @@ ServiceStatus JobService::RunJob(const Caller& caller, const std::function<bool(
     }
   } while (!ended && read(&msg));
   m.CloseFile(job_id, lease_id);
-  // The job's end is stored whenever the store can (a full disk pauses the job until then).
+  // The job's end is stored whenever the store can (a full disk pauses the job until then), or given up
+  // when the server drains: the lease it leaves is released when the server starts again, and the job
+  // queued (a server told to stop on a full disk stops).
   Result<v1::JobState> state = v1::JOB_STATE_UNSPECIFIED;
   m.StoreOrPause(
       job_id,
@@ -1158,7 +1163,7 @@ ServiceStatus JobService::RunJob(const Caller& caller, const std::function<bool(
         state = m.store->EndLease(job_id, lease_id, end, failure, Now());
         return state.status();
       },
-      [] { return false; });
+      [&] { return m.draining.load(); });
   if (state.ok()) m.Log("job " + std::to_string(job_id) + " " + v1::JobState_Name(*state) + (failure.empty() ? "" : " (" + failure + ")"));
   if (state.ok() && *state == v1::SUCCEEDED) m.LearnFromFinishedJob(job_id);
   m.Notify();
