@@ -766,12 +766,13 @@ Status DesignFileWriter::Append(const BesoIteration& it) {
   if (!m.failed.empty()) return Fail(m.path, "an earlier write failed (" + m.failed + "); reopen the file to go on");
   // A full disk is met before a write where it can be: a chunk that fails to write may take the rows it
   // shared with earlier iterations with it (HDF5 is not crash-safe). Room for twice the iteration's
-  // arrays and 1 MiB of metadata is asked.
-  const long long needs = 2 * (static_cast<long long>(m.faces) * 25 + static_cast<long long>(m.vertices) * 24 * std::max<long long>(m.motions, 1)) + (1 << 20);
+  // arrays and 256 KiB of metadata is kept free.
+  const long long needs = 2 * (static_cast<long long>(m.faces) * 25 + static_cast<long long>(m.vertices) * 24 * std::max<long long>(m.motions, 1)) + (1 << 18);
   if (const long long free = FreeBytes(m.path); free >= 0 && free < needs) {
-    m.failed = "No space left on device (ENOSPC)";
-    return Fail(m.path, "cannot write iteration " + std::to_string(it.iteration) + ": No space left on device (ENOSPC): " + std::to_string(free) +
-                            " bytes free on its file system, an iteration needs about " + std::to_string(needs) + "; " + StoredSoFar(count_));
+    m.failed = "the disk is nearly full (ENOSPC)";
+    return Fail(m.path, "cannot write iteration " + std::to_string(it.iteration) + ": the disk is nearly full (ENOSPC): " + std::to_string(free) +
+                            " bytes free on its file system, fewer than the " + std::to_string(needs) + " kgd keeps free to store an iteration whole; " +
+                            StoredSoFar(count_));
   }
   const hsize_t row = count_;
   FaultPoint("design_file.append.begin", it.iteration);

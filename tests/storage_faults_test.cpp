@@ -103,7 +103,8 @@ TEST_F(StorageFaults, AFullDiskStopsTheJobNamingTheFileAndItResumesBitForBit) {
   ASSERT_EQ(Kgd(kJob + " --iterations 5 --out " + Path("five.h5")).exit_code, 0);
   const std::string disk = Path("disk");
   fs::create_directories(disk);
-  const uintmax_t size = fs::file_size(Path("five.h5")) + (1500 << 10);
+  // Room for less than the whole job: the disk fills part of the way.
+  const uintmax_t size = fs::file_size(Path("whole.h5")) - (64 << 10);
   if (Shell("mount -t tmpfs -o size=" + std::to_string(size) + " kgd-test " + disk).exit_code != 0)
     GTEST_SKIP() << "cannot mount a small tmpfs here (needs root)";
   struct Unmount {
@@ -114,7 +115,9 @@ TEST_F(StorageFaults, AFullDiskStopsTheJobNamingTheFileAndItResumesBitForBit) {
   const CommandRun r = Kgd(kJob + " --iterations 12 --out " + file);
   EXPECT_EQ(r.exit_code, 4) << r.output;
   EXPECT_NE(r.output.find(file + ": cannot write iteration"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("No space left on device (ENOSPC)"), std::string::npos) << r.output;
+  // Met by the system's ENOSPC, or before it by the room kgd keeps free.
+  EXPECT_TRUE(r.output.find("No space left on device (ENOSPC)") != std::string::npos || r.output.find("the disk is nearly full (ENOSPC)") != std::string::npos)
+      << r.output;
   EXPECT_EQ(r.output.find("\"event\":\"done\""), std::string::npos) << "a failed write reported as a finished job:\n" << r.output;
   const int stored = StoredIterations(file);
   ASSERT_GE(stored, 1) << "the file does not read back: " << Kgd("designs " + file).output;
