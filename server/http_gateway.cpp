@@ -267,7 +267,7 @@ struct HttpGateway::Impl {
     const std::string from = sep == std::string::npos ? page : page.substr(0, page.find_first_of("/?#", sep + 3));
     SetError(res, 403, ServiceCode::kPermissionDenied,
              "a page from " + (from.empty() ? std::string("an unnamed origin") : from) + (has_origin ? "" : " (its Referer)") + " may not " +
-                 req.method + " " + req.path + " on this server: only the server's own page may (--allowed-host NAME[:PORT] names another)");
+                 req.method + " " + req.path + " on this server: only the server's own page may (the server's own names only: another site is never let in)");
     return true;
   }
 

@@ -361,7 +361,7 @@ struct JobService::Impl {
   // A job as callers see it: its design file named, and its spec without the uploaded files' contents
   // (megabytes of meshes per job in every listing and watch event; workers get them with their lease).
   void Decorate(v1::Job* job) const {
-    if (job->iterations() > 0 || fs::exists(FilePath(job->id()))) job->set_data_file(FilePath(job->id()));
+    if (std::error_code ec; fs::exists(FilePath(job->id()), ec)) job->set_data_file(FilePath(job->id()));
     if (job->state() == v1::RUNNING) job->set_paused(PausedReason(job->id()));
     if (job->spec().has_scene_files()) job->mutable_spec()->mutable_scene_files()->clear_files();
   }
