@@ -13,9 +13,10 @@ every 0.2 s). Every run is judged against the uninterrupted local `kgd design` o
   paused          the job paused with a named reason (the server keeps the lease and retries); it then
                   ended with the same design by itself, or, still paused after the faulty phase's time,
                   once the server was stopped and started again on the data folder without faults
-  stopped         the server exited naming an error, or, under allocation faults only, was killed by
-                  a signal (gRPC aborts on a failed allocation); started again on the same data folder
-                  without faults, the job ended with the same design
+  stopped         the server exited naming an error, or was killed by a signal under allocation faults
+                  (gRPC and the C++ runtime abort on a failed allocation), or aborted naming a failed
+                  allocation under mmap faults; started again on the same data folder without faults,
+                  the job ended with the same design
   named error     the job FAILED, or the server refused it, with a message; what the job stored, once
                   the server has started again on the folder without faults, reads back (`kgd check`)
                   and is the uninterrupted run's first iterations
@@ -287,7 +288,10 @@ def one_run(kgd, ref, work, env, kind, seed, errno, probability, index):
         code = server.stop()
         words = server.last_words()
         if exited is not None:
-            if exited < 0 and not (kind == "allocation" or (exited == -signal.SIGABRT and "out of memory" in words)):
+            # Memory that cannot be had ends the process: any signal under allocation faults, and an abort
+            # naming it under mmap faults (ENOMEM to an allocator: abseil's, in gRPC, aborts "mmap error: 12").
+            out_of_memory = exited == -signal.SIGABRT and re.search(r"mmap error: 12|bad_alloc|out of memory|Cannot allocate memory", words)
+            if exited < 0 and not (KINDS[kind][0] == "allocation" or (KINDS[kind][0] == "mmap" and out_of_memory)):
                 return "anything else", f"killed by signal {-exited}: {words}"
             if exited > 0 and not words:
                 return "anything else", f"exit {exited} without a message"
