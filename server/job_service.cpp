@@ -450,7 +450,7 @@ struct JobService::Impl {
       it->second.writer.reset();
       const std::optional<JobProgress> progress = store->Progress(job_id);
       if (!progress) return Status::Error("job " + std::to_string(job_id) + " vanished");
-      Result<std::unique_ptr<DesignFileWriter>> reopened = DesignFileWriter::Reopen(FilePath(job_id), progress->iterations);
+      Result<std::unique_ptr<DesignFileWriter>> reopened = DesignFileWriter::Rebuild(FilePath(job_id), progress->iterations);
       if (!reopened.ok()) return reopened.status();
       if ((*reopened)->num_iterations() < progress->iterations)
         return Status::Error(FilePath(job_id) + ": " + (*reopened)->repair_note() + "; the job needs a server restart to be trimmed");

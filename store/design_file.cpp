@@ -705,6 +705,24 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
 // checksum (tens of committed rows unreadable; a SWMR reader retried it with doubling sleeps for
 // hours). Every iteration that reads back whole is copied, in order, into a fresh file that then
 // replaces the old one; the first that does not ends the copy (a resumed job recomputes the rest).
+Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Rebuild(const std::string& path, int keep) {
+  SilenceHdf5();
+  if (!std::filesystem::is_regular_file(path)) return Fail(path, "no such file");
+  KGD_RETURN_IF_ERROR(ExtendToRecordedEnd(path));
+  Result<FileLock> lock = FileLock::Acquire(path);
+  if (!lock.ok()) return lock.status();
+  Result<std::unique_ptr<DesignFileReader>> r = OpenDesignFileReader(path, /*salvage=*/true);
+  if (!r.ok()) {
+    // Marked "open for write" by the failed writer (see Reopen): cleared, as the lock is held.
+    KGD_RETURN_IF_ERROR(ClearWriteMark(path));
+    r = OpenDesignFileReader(path, /*salvage=*/true);
+  }
+  if (!r.ok()) return r.status();
+  if (keep > static_cast<int>((*r)->marker_rows))
+    return Fail(path, "cannot keep " + std::to_string(keep) + " iterations: the file has " + std::to_string((*r)->marker_rows));
+  return Salvage(**r, keep);
+}
+
 Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Salvage(const DesignFileReader& r, int keep) {
   const std::string tmp = r.path + ".salvage";
   Result<std::unique_ptr<DesignFileWriter>> w = Create(tmp, r.header);

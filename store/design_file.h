@@ -106,6 +106,10 @@ class DesignFileWriter {
   // is first rebuilt from the iterations that do, which may be fewer than `keep`: num_iterations() says
   // how many were kept, repair_note() what happened (a damaged original is kept as path + ".damaged").
   static Result<std::unique_ptr<DesignFileWriter>> Reopen(const std::string& path, int keep = -1);
+  // Like Reopen, but always copies the first `keep` iterations that read back whole into a fresh file
+  // that replaces `path`: after a failed write, whose file HDF5 may go on to extend from a wrong end
+  // ("addr overflow") if it were appended to in place.
+  static Result<std::unique_ptr<DesignFileWriter>> Rebuild(const std::string& path, int keep);
   ~DesignFileWriter();
 
   // Appends one iteration (its index must be the number stored so far) and flushes it to disk.
