@@ -160,7 +160,8 @@ try {
   await page.fill('#max-iterations', '60');
   await page.fill('#label', 'browser test');
   await page.click('#submit-button');
-  await until('the first rendered iteration', () => page.evaluate(() => window.kgd.rendered >= 1), 120000);
+  // With a cold scene cache the worker first measures the machine and builds the scene (minutes on a busy machine).
+  await until('the first rendered iteration', () => page.evaluate(() => window.kgd.rendered >= 1), 300000);
   const canvasHash = () => page.evaluate(() => {
     const s = document.getElementById('view').toDataURL('image/png');
     let h = 0;
