@@ -30,20 +30,8 @@ namespace fs = std::filesystem;
 using cli_test::Kgd;
 using test_support::FreePort;
 using test_support::Process;
-
-bool WaitFor(const std::function<bool()>& done, double timeout_s) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return done();
-}
-
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
+using test_support::WaitFor;
+using test_support::ReadText;
 
 // Writes `path` until the file system holds no more: 1 MiB blocks, then 4 KiB ones.
 void FillDisk(const std::string& path) {
@@ -82,7 +70,7 @@ TEST(FullDiskService, AJobPausesWithItsReasonAndContinuesBitForBitWhenSpaceRetur
                                   "--lease-s", "3"},
                                  dir + "/serve.log");
   const std::string log_path = dir + "/serve.log";
-  ASSERT_TRUE(WaitFor([&] { return ReadAll(log_path).find("listening on") != std::string::npos; }, 60)) << ReadAll(log_path);
+  ASSERT_TRUE(WaitFor([&] { return ReadText(log_path).find("listening on") != std::string::npos; }, 60)) << ReadText(log_path);
   auto channel = grpc::CreateChannel(address, grpc::InsecureChannelCredentials());
   auto stub = v1::DesignService::NewStub(channel);
   httplib::Client http("127.0.0.1", http_port);
@@ -138,9 +126,9 @@ TEST(FullDiskService, AJobPausesWithItsReasonAndContinuesBitForBitWhenSpaceRetur
     }
   } join{watcher};
 
-  ASSERT_TRUE(WaitFor([&] { return get_job(id).iterations() >= 3; }, 60)) << ReadAll(log_path);
+  ASSERT_TRUE(WaitFor([&] { return get_job(id).iterations() >= 3; }, 60)) << ReadText(log_path);
   FillDisk(disk + "/filler");
-  ASSERT_TRUE(WaitFor([&] { return !get_job(id).paused().empty(); }, 30)) << "the job never reads paused:\n" << ReadAll(log_path);
+  ASSERT_TRUE(WaitFor([&] { return !get_job(id).paused().empty(); }, 30)) << "the job never reads paused:\n" << ReadText(log_path);
 
   // Paused, with the reason, wherever users look.
   job = get_job(id);
@@ -195,7 +183,7 @@ TEST(FullDiskService, AJobPausesWithItsReasonAndContinuesBitForBitWhenSpaceRetur
         return s == v1::SUCCEEDED || s == v1::FAILED || s == v1::CANCELLED;
       },
       90))
-      << ReadAll(log_path);
+      << ReadText(log_path);
   job = get_job(id);
   EXPECT_EQ(job.state(), v1::SUCCEEDED) << job.failure();
   EXPECT_TRUE(job.paused().empty());

@@ -28,25 +28,13 @@ namespace {
 namespace fs = std::filesystem;
 using test_support::FreePort;
 using test_support::Process;
-
-bool WaitFor(const std::function<bool()>& done, double timeout_s) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return done();
-}
+using test_support::WaitFor;
+using test_support::ReadText;
 
 // The kgd under test: the build's, or $KGD_TEST_BINARY (a copy kept apart from a build dir others rebuild).
 std::string KgdBinary() {
   const char* b = std::getenv("KGD_TEST_BINARY");
   return b && *b ? b : KGD_BINARY;
-}
-
-std::string ReadText(const std::string& path) {
-  std::ifstream in(path);
-  return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
 // Figures (double, int) and Eigen arrays, compared by their bits.

@@ -30,20 +30,8 @@ namespace {
 namespace fs = std::filesystem;
 using test_support::FreePort;
 using test_support::Process;
-
-bool WaitFor(const std::function<bool()>& done, double timeout_s) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return done();
-}
-
-std::string ReadText(const std::string& path) {
-  std::ifstream in(path);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
+using test_support::WaitFor;
+using test_support::ReadText;
 
 const std::string kAlice = "alice-token-0123456789abcdef", kBob = "bob-token-0123456789abcdef", kRoot = "root-token-0123456789abcdef",
                   kWorker = "worker-token-0123456789abcdef";

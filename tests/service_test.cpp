@@ -28,15 +28,7 @@ using cli_test::Kgd;
 
 using test_support::FreePort;
 using test_support::Process;
-
-bool WaitFor(const std::function<bool()>& done, double timeout_s) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return done();
-}
+using test_support::WaitFor;
 
 // One server (restartable on the same port and data folder) and its workers.
 class Service {

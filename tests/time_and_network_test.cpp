@@ -33,25 +33,13 @@ namespace fs = std::filesystem;
 using cli_test::Kgd;
 using test_support::FreePort;
 using test_support::Process;
+using test_support::WaitFor;
+using test_support::ReadText;
 
 constexpr double kLeaseS = 3;
 constexpr const char* kFakeTime = "/usr/lib/x86_64-linux-gnu/faketime/libfaketimeMT.so.1";
 
-bool WaitFor(const std::function<bool()>& done, double timeout_s) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return done();
-}
-
 double WallNow() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
-
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
 
 size_t Count(const std::string& text, const std::string& what) {
   size_t n = 0;
@@ -146,10 +134,10 @@ class Service {
   void SignalWorker(int k, int sig) { workers_[k].Signal(sig); }
   std::string WorkerLogPath(int k) const { return dir_ + "/worker" + std::to_string(k) + ".log"; }
 
-  std::string Log() const { return ReadAll(dir_ + "/server.log"); }
+  std::string Log() const { return ReadText(dir_ + "/server.log"); }
   std::string Logs() const {
     std::string all = "server:\n" + Log();
-    for (size_t k = 0; k < workers_.size(); ++k) all += "worker " + std::to_string(k) + ":\n" + ReadAll(WorkerLogPath(k));
+    for (size_t k = 0; k < workers_.size(); ++k) all += "worker " + std::to_string(k) + ":\n" + ReadText(WorkerLogPath(k));
     return all;
   }
   const std::string& address() const { return address_; }
@@ -395,8 +383,8 @@ TEST(TimeAndNetwork, AWorkerCutOffLongerThanItsLeaseLosesTheJobOnceAndStoresNoth
 
   // The cut-off worker's late heartbeat or report is refused: it gives the job up.
   const std::string lost = "job " + std::to_string(job.id()) + ": lost the server (";
-  ASSERT_TRUE(WaitFor([&] { return ReadAll(service.WorkerLogPath(cut)).find(lost) != std::string::npos; }, 30)) << service.Logs();
-  EXPECT_NE(ReadAll(service.WorkerLogPath(cut)).find("no longer held"), std::string::npos) << service.Logs();
+  ASSERT_TRUE(WaitFor([&] { return ReadText(service.WorkerLogPath(cut)).find(lost) != std::string::npos; }, 30)) << service.Logs();
+  EXPECT_NE(ReadText(service.WorkerLogPath(cut)).find("no longer held"), std::string::npos) << service.Logs();
 
   ASSERT_TRUE(WaitFor([&] { return service.Finished(job.id()); }, 120)) << service.Logs();
   const v1::Job after = service.Get(job.id());
