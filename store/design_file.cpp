@@ -604,12 +604,17 @@ static Status ExtendToRecordedEnd(const std::string& path) {
   return Status::Ok();
 }
 
-Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::string& path, int keep) {
+// An existing design file made ready for a writer: extended to its recorded end, and locked (the lock is
+// held through a repair and the appends; a rebuilt file carries its own, Salvage's).
+static Result<FileLock> LockExistingForWriting(const std::string& path) {
   SilenceHdf5();
   if (!std::filesystem::is_regular_file(path)) return Fail(path, "no such file");
   KGD_RETURN_IF_ERROR(ExtendToRecordedEnd(path));
-  // Held through the repair and the appends; a rebuilt file carries its own (Salvage).
-  Result<FileLock> lock = FileLock::Acquire(path);
+  return FileLock::Acquire(path);
+}
+
+Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::string& path, int keep) {
+  Result<FileLock> lock = LockExistingForWriting(path);
   if (!lock.ok()) return lock.status();
   {
     // A writer killed in SWMR mode leaves the superblock marked "open for write", which a plain open
@@ -706,10 +711,7 @@ Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Reopen(const std::st
 // hours). Every iteration that reads back whole is copied, in order, into a fresh file that then
 // replaces the old one; the first that does not ends the copy (a resumed job recomputes the rest).
 Result<std::unique_ptr<DesignFileWriter>> DesignFileWriter::Rebuild(const std::string& path, int keep) {
-  SilenceHdf5();
-  if (!std::filesystem::is_regular_file(path)) return Fail(path, "no such file");
-  KGD_RETURN_IF_ERROR(ExtendToRecordedEnd(path));
-  Result<FileLock> lock = FileLock::Acquire(path);
+  Result<FileLock> lock = LockExistingForWriting(path);
   if (!lock.ok()) return lock.status();
   Result<std::unique_ptr<DesignFileReader>> r = OpenDesignFileReader(path, /*salvage=*/true);
   if (!r.ok()) {
