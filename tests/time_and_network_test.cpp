@@ -122,15 +122,18 @@ class Service {
     fs::rename(dir_ + "/faketime.tmp", dir_ + "/faketime");
   }
 
-  int StartWorker(const std::string& server_address) {
+  // A kgd-worker with `env` (NAME=VALUE) added to its environment.
+  int StartWorker(const std::string& server_address, const std::vector<std::string>& env = {}) {
     const int k = static_cast<int>(workers_.size());
     std::vector<std::string> args = clock_;
+    if (!env.empty() && args.empty()) args.push_back("/usr/bin/env");
+    args.insert(args.end(), env.begin(), env.end());
     for (const std::string& a : {std::string(KGD_WORKER_BINARY), std::string("--server"), server_address, std::string("--name"), "w" + std::to_string(k)})
       args.push_back(a);
     workers_.push_back(Process::Spawn(args, WorkerLogPath(k)));
     return k;
   }
-  int StartWorker() { return StartWorker(address_); }
+  int StartWorker(const std::vector<std::string>& env = {}) { return StartWorker(address_, env); }
   void SignalWorker(int k, int sig) { workers_[k].Signal(sig); }
   std::string WorkerLogPath(int k) const { return dir_ + "/worker" + std::to_string(k) + ".log"; }
 
@@ -294,8 +297,10 @@ TEST(TimeAndNetwork, AServerClockSteppingAnHourForwardAndBackExpiresNoLiveLease)
   constexpr double kDay = 86400;  // the server's clock a day ahead from the start: the job's times show it runs under libfaketime
   Service service("jump_forward_back", /*fake_time=*/true, kDay);
   auto local = LocalRun(service.dir(), kIterations);
-  service.StartWorker();
-  service.StartWorker();
+  // Each iteration at least 0.4 s, on any machine: the job (>= 24 s) outlasts the two observations (12 s).
+  const std::vector<std::string> slow = {"KGD_FAULT_POINT=worker.before_report@sleep=0.4"};
+  service.StartWorker(slow);
+  service.StartWorker(slow);
   v1::Job job;
   ASSERT_TRUE(service.Create(Sleeve(kIterations), &job).ok());
   EXPECT_NEAR(job.create_time_s(), WallNow() + kDay, 60) << "the server runs under libfaketime";

@@ -4,10 +4,12 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <mutex>
 #include <string>
+#include <thread>
 
 namespace kgd {
 namespace fault_point_detail {
@@ -20,6 +22,7 @@ struct Spec {
   std::string name;
   long hit = 1;         // kill at this hit (1-based) ...
   int iteration = -1;   // ... or at the first hit for this iteration (>= 0)
+  double sleep_s = 0;   // > 0: wait this long at every hit instead of killing
   std::atomic<long> hits{0};
 };
 
@@ -33,13 +36,21 @@ Spec* ReadSpec() {
   s->name = text.substr(0, at);
   if (at != std::string::npos) {
     const std::string arg = text.substr(at + 1);
-    const std::string kIteration = "iteration=";
+    const std::string kIteration = "iteration=", kSleep = "sleep=";
     char* end = nullptr;
+    if (arg.rfind(kSleep, 0) == 0) {
+      const std::string number = arg.substr(kSleep.size());
+      const double v = std::strtod(number.c_str(), &end);
+      if (!number.empty() && !*end && v > 0 && v <= 60) {
+        s->sleep_s = v;
+        return s;
+      }
+    }
     const bool by_iteration = arg.rfind(kIteration, 0) == 0;
     const std::string number = by_iteration ? arg.substr(kIteration.size()) : arg;
     const long v = std::strtol(number.c_str(), &end, 10);
     if (number.empty() || *end || v < (by_iteration ? 0 : 1)) {
-      const std::string msg = "kgd: KGD_FAULT_POINT=" + text + " is not NAME, NAME@N (N >= 1) or NAME@iteration=K: ignored\n";
+      const std::string msg = "kgd: KGD_FAULT_POINT=" + text + " is not NAME, NAME@N (N >= 1), NAME@iteration=K or NAME@sleep=S (0 < S <= 60): ignored\n";
       (void)!write(2, msg.data(), msg.size());
       delete s;
       return nullptr;
@@ -61,6 +72,10 @@ void Check(const char* name, int iteration) {
     armed = spec ? 1 : 0;
   });
   if (!spec || spec->name != name) return;
+  if (spec->sleep_s > 0) {
+    std::this_thread::sleep_for(std::chrono::duration<double>(spec->sleep_s));
+    return;
+  }
   if (spec->iteration >= 0 ? iteration != spec->iteration : ++spec->hits != spec->hit) return;
   const std::string msg = std::string("kgd: fault point ") + name + " (KGD_FAULT_POINT, iteration " + std::to_string(iteration) + "): killed\n";
   (void)!write(2, msg.data(), msg.size());

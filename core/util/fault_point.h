@@ -5,6 +5,8 @@
 //   NAME               the first time the process passes NAME
 //   NAME@N             the N-th time (N >= 1)
 //   NAME@iteration=K   the first time it passes NAME for BESO iteration K (the caller's `iteration`)
+//   NAME@sleep=S       not a kill: the process waits S seconds (0 < S <= 60) every time it passes NAME,
+//                      as a slow machine would (a test's job then outlasts what it observes)
 // Unset or empty, FaultPoint does nothing but one load of a flag. Before killing it writes
 // "kgd: fault point NAME (...): killed" to stderr, so a test can tell its kill from another death.
 //
@@ -37,7 +39,8 @@ extern std::atomic<int> armed;
 void Check(const char* name, int iteration);
 }  // namespace fault_point_detail
 
-// Kills the process (SIGKILL) when KGD_FAULT_POINT names this point, hit and iteration (see above);
+// Kills the process (SIGKILL) when KGD_FAULT_POINT names this point, hit and iteration, or waits when it
+// names this point with a sleep (see above);
 // `iteration` is the BESO iteration being stored or reported, -1 where none is.
 inline void FaultPoint(const char* name, int iteration = -1) {
   if (fault_point_detail::armed.load(std::memory_order_relaxed) != 0) fault_point_detail::Check(name, iteration);
