@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/util/private_rand.h"
 #include "core/util/serial_blas.h"
 
 // BLAS/LAPACK (OpenBLAS on Debian) for the dense separator block. The trailing lengths are gfortran's
@@ -320,11 +321,13 @@ SparseCholesky::SparseCholesky() : impl_(std::make_unique<Impl>()) {}
 SparseCholesky::~SparseCholesky() = default;
 
 void SparseCholesky::Analyze(const SpMat& upper, bool allow_split) {
-  // METIS (CHOLMOD's METIS ordering and bisection) draws from one process-wide random state, which it
-  // reseeds at every call: two analyses at once (a worker running two jobs) would interleave their
-  // draws and make the orderings, and so every result after them, differ from run to run.
+  // METIS (CHOLMOD's METIS ordering and bisection) reseeds libc's rand() at every call and draws from
+  // it: another thread's draws in between (gRPC's, c-ares', another analysis') would make the
+  // ordering, and so every result after it, differ from run to run. The analysis draws from a state of
+  // its own (core/util/private_rand.h); the lock keeps METIS's other globals to one analysis at a time.
   static std::mutex metis;
   std::lock_guard<std::mutex> lock(metis);
+  PrivateRand private_rand;
   impl_ = std::make_unique<Impl>();
   Impl& m = *impl_;
   m.n = static_cast<int>(upper.rows());

@@ -4,6 +4,8 @@
 #include <omp.h>
 
 #include <Eigen/Dense>
+#include <atomic>
+#include <cstdlib>
 #include <random>
 #include <thread>
 #include <vector>
@@ -155,6 +157,45 @@ TEST(SparseCholesky, AnalysesAtOnceOrderAsOneAlone) {
         ASSERT_EQ(xs[t][k].size(), A.rows());
         EXPECT_EQ((xs[t][k] - alone).cwiseAbs().maxCoeff(), 0.0) << "thread " << t << ", analysis " << k << ", split " << allow_split;
       }
+  }
+}
+
+// METIS as Debian builds it draws from libc's rand(), which other libraries of a service process call
+// from their own threads (gRPC and c-ares do): an analysis while another thread draws must still order
+// the unknowns as one alone does, or a served job parts from the same job run locally.
+TEST(SparseCholesky, AnAnalysisWhileAnotherThreadCallsRandOrdersAsOneAlone) {
+  const SpMat A = TubeSystem(40, 100, 7);
+  const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(A.rows(), 1.0, -2.0);
+  auto solve = [&](bool allow_split, std::vector<int>* separator, Eigen::VectorXd* x) {
+    SparseCholesky c;
+    c.Analyze(A, allow_split);
+    *separator = c.separator();
+    *x = c.Factorize(A, 1e-2) ? c.Solve(b) : Eigen::VectorXd();
+  };
+  for (bool allow_split : {true, false}) {
+    std::vector<int> separator;
+    Eigen::VectorXd alone;
+    solve(allow_split, &separator, &alone);
+    ASSERT_EQ(alone.size(), A.rows());
+    std::atomic<bool> stop{false};
+    std::atomic<long> draws{0};
+    std::thread drawer([&] {
+      while (!stop) {
+        (void)std::rand();
+        ++draws;
+      }
+    });
+    for (int k = 0; k < 3; ++k) {
+      std::vector<int> s;
+      Eigen::VectorXd x;
+      solve(allow_split, &s, &x);
+      EXPECT_EQ(s, separator) << "analysis " << k << ", split " << allow_split;
+      ASSERT_EQ(x.size(), A.rows());
+      EXPECT_EQ((x - alone).cwiseAbs().maxCoeff(), 0.0) << "analysis " << k << ", split " << allow_split;
+    }
+    stop = true;
+    drawer.join();
+    EXPECT_GT(draws.load(), 0) << "the other thread drew while the analyses ran";
   }
 }
 
