@@ -53,6 +53,15 @@ double RelativeResidual(const SpMat& upper, double shift, const Eigen::VectorXd&
   return r.norm() / b.norm();
 }
 
+// An analysis, a factorization (shift 1e-2) and a solve of A x = b, from scratch: the separator and x
+// (empty when the factorization fails).
+void SolveAfresh(const SpMat& A, const Eigen::VectorXd& b, bool allow_split, std::vector<int>* separator, Eigen::VectorXd* x) {
+  SparseCholesky c;
+  c.Analyze(A, allow_split);
+  *separator = c.separator();
+  *x = c.Factorize(A, 1e-2) ? c.Solve(b) : Eigen::VectorXd();
+}
+
 double& Diagonal(SpMat& upper, int i) { return upper.coeffRef(i, i); }
 
 TEST(SparseCholesky, SmallSystemsAreFactoredWhole) {
@@ -132,12 +141,7 @@ TEST(SparseCholesky, ResultsDoNotDependOnTheNumberOfThreads) {
 TEST(SparseCholesky, AnalysesAtOnceOrderAsOneAlone) {
   const SpMat A = TubeSystem(40, 100, 6);
   const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(A.rows(), -2.0, 1.0);
-  auto solve = [&](bool allow_split, std::vector<int>* separator, Eigen::VectorXd* x) {
-    SparseCholesky c;
-    c.Analyze(A, allow_split);
-    *separator = c.separator();
-    *x = c.Factorize(A, 1e-2) ? c.Solve(b) : Eigen::VectorXd();
-  };
+  auto solve = [&](bool allow_split, std::vector<int>* separator, Eigen::VectorXd* x) { SolveAfresh(A, b, allow_split, separator, x); };
   for (bool allow_split : {true, false}) {
     std::vector<int> separator;
     Eigen::VectorXd alone;
@@ -166,12 +170,7 @@ TEST(SparseCholesky, AnalysesAtOnceOrderAsOneAlone) {
 TEST(SparseCholesky, AnAnalysisWhileAnotherThreadCallsRandOrdersAsOneAlone) {
   const SpMat A = TubeSystem(40, 100, 7);
   const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(A.rows(), 1.0, -2.0);
-  auto solve = [&](bool allow_split, std::vector<int>* separator, Eigen::VectorXd* x) {
-    SparseCholesky c;
-    c.Analyze(A, allow_split);
-    *separator = c.separator();
-    *x = c.Factorize(A, 1e-2) ? c.Solve(b) : Eigen::VectorXd();
-  };
+  auto solve = [&](bool allow_split, std::vector<int>* separator, Eigen::VectorXd* x) { SolveAfresh(A, b, allow_split, separator, x); };
   for (bool allow_split : {true, false}) {
     std::vector<int> separator;
     Eigen::VectorXd alone;
