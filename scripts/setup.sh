@@ -96,10 +96,14 @@ fi
 
 # The web page's libraries (three.js, uPlot) and the browser tests' driver (playwright-core), exactly as
 # locked; again only when the lock file is newer than the installed tree.
+# node_modules/.kgd-npm-omit says what the last install left out: a tree installed without the test
+# libraries (an older Node.js, `make demo`) is installed again when they are wanted.
 WEB="$(cd "$(dirname "$0")/.." && pwd)/client/web"
-if [ ! -f "$WEB/node_modules/.package-lock.json" ] || [ "$WEB/package-lock.json" -nt "$WEB/node_modules/.package-lock.json" ]; then
-  echo "setup: npm ci in client/web"
+if [ ! -f "$WEB/node_modules/.package-lock.json" ] || [ "$WEB/package-lock.json" -nt "$WEB/node_modules/.package-lock.json" ] ||
+   [ "$(cat "$WEB/node_modules/.kgd-npm-omit" 2>/dev/null || echo unknown)" != "$NPM_OMIT" ]; then
+  echo "setup: npm ci ${NPM_OMIT:+$NPM_OMIT }in client/web"
   (cd "$WEB" && npm ci $NPM_OMIT --no-audit --no-fund --loglevel=warn)
+  echo "$NPM_OMIT" > "$WEB/node_modules/.kgd-npm-omit"
 else
   echo "setup: client/web/node_modules is up to date"
 fi
