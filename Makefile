@@ -16,7 +16,8 @@ build: setup
 
 # The main job on the embedded default: `kgd serve` (server + in-process worker, SQLite and HDF5 in
 # $(BUILD)/demo-data), the built-in arm-flexion design job submitted and watched live through the CLI
-# (about 3 minutes on two cores), then where its result is.
+# (a first run also builds the scene cache and measures the machine), then where its result is; the
+# service stays on the CLI's and the browser's default addresses until Ctrl-C.
 demo: build
 	bash scripts/demo.sh $(BUILD)
 
