@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds kgd's images from deploy/docker/Dockerfile with buildah, without a daemon or a registry:
 #   1. the base images debian:12 and debian:12-slim, when absent, from `debootstrap --variant=minbase
-#      bookworm` against the Debian mirror apt uses here (its sources go into the image too, so the
+#      bookworm` against the Debian mirror apt uses here, or $KGD_DEBIAN_MIRROR (its sources go into the image too, so the
 #      build stage installs the same package versions as this machine);
 #   2. the targets server, worker and cli, tagged kgd-server, kgd-worker and kgd-cli.
 # Needs root and buildah and debootstrap (`scripts/setup.sh --images`). Storage driver vfs, chroot
@@ -18,24 +18,31 @@ mkdir -p "$(dirname "$report")"
 
 exists() { buildah inspect --type image "$1" > /dev/null 2>&1; }
 
-# The Debian mirror (first URIs: of a deb822 source, else the first deb line) apt uses on this machine.
+# The Debian mirror: $KGD_DEBIAN_MIRROR, else the one apt uses on this machine (first URIs: of a deb822
+# source, else the first bookworm deb line); none found is an error that says what to set.
 mirror() {
-  local m=""
-  if [ -f /etc/apt/sources.list.d/debian.sources ]; then
+  local m="${KGD_DEBIAN_MIRROR:-}"
+  if [ -z "$m" ] && [ -f /etc/apt/sources.list.d/debian.sources ]; then
     m=$(awk '/^URIs:/ {print $2; exit}' /etc/apt/sources.list.d/debian.sources)
   fi
   if [ -z "$m" ] && [ -f /etc/apt/sources.list ]; then
     m=$(awk '$1 == "deb" && $0 ~ /bookworm/ {for (i = 2; i <= NF; i++) if ($i ~ /^https?:/) {print $i; exit}}' /etc/apt/sources.list)
   fi
-  echo "${m:-http://deb.debian.org/debian}"
+  if [ -z "$m" ]; then
+    echo "images: no Debian mirror: KGD_DEBIAN_MIRROR is unset and neither /etc/apt/sources.list.d/debian.sources nor /etc/apt/sources.list names a bookworm one; set KGD_DEBIAN_MIRROR (e.g. KGD_DEBIAN_MIRROR=http://deb.debian.org/debian)" >&2
+    return 1
+  fi
+  echo "$m"
 }
 
 make_base() {
   local t0=$SECONDS root ctr
   root=$(mktemp -d /var/tmp/kgd-rootfs.XXXXXX)
   trap 'rm -rf "$root"' RETURN
-  echo "images: debootstrap --variant=minbase bookworm from $(mirror)"
-  debootstrap --variant=minbase bookworm "$root" "$(mirror)" > "$root.log" 2>&1 || { tail -20 "$root.log"; exit 1; }
+  local from
+  from=$(mirror) || exit 1
+  echo "images: debootstrap --variant=minbase bookworm from $from"
+  debootstrap --variant=minbase bookworm "$root" "$from" > "$root.log" 2>&1 || { tail -20 "$root.log"; exit 1; }
   rm -f "$root.log"
   # The same sources as this machine (e.g. bookworm-updates and bookworm-security): the build stage
   # then installs the versions this machine runs (glibc and OpenBLAS shape the results bit for bit).
