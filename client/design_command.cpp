@@ -689,6 +689,7 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
       *exit_code = FailReading("export", r.message());
       return;
     }
+    if (!r->note.empty() && !ex->json) std::fprintf(stderr, "kgd export: note: %s\n", r->note.c_str());
     if (ex->json) {
       std::printf("%s", ExportReportJson(*r).c_str());
     } else {

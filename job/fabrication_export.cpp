@@ -120,6 +120,13 @@ Result<ExportReport> ExportDesign(const std::string& path, const std::string& ou
         break;
       }
   }
+  std::string note;
+  if (o.iteration < 0 && metrics->iterations[k].area_fraction > h.settings.budget + 1e-9) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "no stored iteration is within the budget (%.1f %%): the last, iteration %d, reinforces %.1f %% of the garment",
+                  100 * h.settings.budget, k, 100 * metrics->iterations[k].area_fraction);
+    note = buf;
+  }
   if (k >= n) return Status::Error(path + ": iteration " + std::to_string(k) + " is not stored (0.." + std::to_string(n - 1) + ")");
   Result<DesignFile> file = ReadDesignFile(path, {.arrays = true, .only_iteration = k});
   if (!file.ok()) return file.status();
@@ -133,6 +140,7 @@ Result<ExportReport> ExportDesign(const std::string& path, const std::string& ou
   scene->design = it.design;
   ExportReport r;
   r.design_file = path;
+  r.note = note;
   r.iteration = k;
   r.area_fraction = it.area_fraction;
   r.density_ratio = it.density_ratio;
@@ -349,6 +357,7 @@ std::string ExportReportJson(const ExportReport& r) {
   nlohmann::ordered_json j;
   j["design_file"] = r.design_file;
   j["iteration"] = r.iteration;
+  if (!r.note.empty()) j["note"] = r.note;
   j["area_fraction"] = r.area_fraction;
   j["density_ratio"] = r.density_ratio;
   j["cleaned"] = {{"area_fraction", r.cleaned_area_fraction},

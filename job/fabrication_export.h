@@ -48,6 +48,8 @@ struct ExportReport {
   // and simulating: its stage is then the wait for it, and pattern_seconds its own time.
   std::vector<std::pair<std::string, double>> stage_seconds;
   double pattern_seconds = 0;
+  // For the user beside the report: why the design exported is not the one they may expect (empty: none).
+  std::string note;
 };
 
 // Exports iteration `options.iteration` of `design_file` into `out_dir` (created if missing), cut

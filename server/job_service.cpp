@@ -27,6 +27,7 @@
 #include "server/job_store.h"
 #include "server/service_metrics.h"
 #include "store/design_file.h"
+#include "store/file_lock.h"
 
 namespace kgd::server {
 namespace fs = std::filesystem;
@@ -154,6 +155,7 @@ const char* ServiceCodeName(ServiceCode code) {
 
 struct JobService::Impl {
   JobServiceOptions options;
+  FileLock folder_lock;  // on DATA/kgd.lock while this service is open: one server per data folder
   std::unique_ptr<JobStore> store;
 
   // Commits (HDF5 + SQLite), leases and the open design files go through commit_mu.
@@ -601,6 +603,18 @@ Result<std::unique_ptr<JobService>> JobService::Open(const JobServiceOptions& op
     if (ec) return Status::Error(options.data_dir + ": cannot create the data folder: " + ec.message());
     fs::permissions(dir, fs::perms::owner_all, ec);
   }
+  // One server per data folder: a second one would release the first's leases as a restart does, and
+  // the first's running jobs would fail on their design files.
+  const std::string lock_path = (fs::path(options.data_dir) / "kgd.lock").string();
+  Result<FileLock> lock = FileLock::Acquire(lock_path, /*create=*/true);
+  if (!lock.ok()) {
+    if (lock.message().find("another writer") == std::string::npos) return lock.status();
+    const std::string holder = FileLockHolder(lock_path);
+    return Status::Error("--data " + options.data_dir + ": another server uses this data folder (" +
+                         (holder.empty() ? std::string("a process this one cannot see") : holder) +
+                         "); stop it, or give this one another --data");
+  }
+  m.folder_lock = std::move(lock).value();
   Result<std::unique_ptr<JobStore>> store = JobStore::Open((fs::path(options.data_dir) / "kgd.sqlite").string());
   if (!store.ok()) return store.status();
   m.store = std::move(store).value();

@@ -7,6 +7,7 @@
 #include "server/job_service.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <hdf5.h>
 
 #include <atomic>
@@ -425,6 +426,25 @@ struct Watch {
 
 // The open watches the service counts (kgd_watchers).
 bool OpenWatchesAre(JobService& s, int n) { return s.MetricsText().find("kgd_watchers " + std::to_string(n) + "\n") != std::string::npos; }
+
+// One server per data folder: a second service on a folder another one has open is refused, naming the
+// folder and the holder, before it touches the first's leases; the folder opens again once the first
+// is closed.
+TEST(JobService, ASecondServiceOnADataFolderInUseIsRefusedNamingTheFirst) {
+  const JobServiceOptions o = Options(FreshDir("second"));
+  auto first = Open(o);
+  ASSERT_TRUE(first);
+  v1::Job job;
+  ASSERT_TRUE(first->CreateJob(kAlice, SleeveJob(), &job).ok());
+  ASSERT_TRUE(Lease(*first).leased());
+  Result<std::unique_ptr<JobService>> second = JobService::Open(o);
+  ASSERT_FALSE(second.ok());
+  EXPECT_NE(second.message().find("--data " + o.data_dir + ": another server uses this data folder"), std::string::npos) << second.message();
+  EXPECT_NE(second.message().find("process " + std::to_string(getpid())), std::string::npos) << second.message();
+  EXPECT_EQ(Job(*first, job.id()).state(), v1::RUNNING) << "the first server's lease is kept";
+  first.reset();
+  EXPECT_TRUE(Open(o)) << "the folder opens once the first server is closed";
+}
 
 TEST(JobService, WatchersGetTheStoredIterationsThenEachNewOneAndTheEnd) {
   auto s = Open(Options(FreshDir("watch")));

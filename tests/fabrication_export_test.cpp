@@ -192,6 +192,8 @@ TEST(Export, ASleeveDesignIsCutIntoPiecesWithPatchesNestedMirroredAndPlaced) {
   ASSERT_EQ(run.exit_code, 0) << run.output;
   const nlohmann::json report = nlohmann::json::parse(run.output);
   EXPECT_EQ(report["iteration"], 60) << "the last iteration (none is within the budget yet)";
+  EXPECT_NE(report.value("note", "").find("no stored iteration is within the budget (15.0 %): the last, iteration 60, reinforces"), std::string::npos)
+      << "the report says the design is over the budget: " << report.dump().substr(0, 300);
   std::printf("arm flexion, iteration 60: density ratio %.4f, cleaned %.4f; %zu pieces, %zu patches, sheet usage %.2f, %.2f s\n",
               report["density_ratio"].get<double>(), report["cleaned"]["density_ratio"].get<double>(), report["pieces"].size(),
               report["patches"].size(), report["sheet_usage"].get<double>(), report["seconds"].get<double>());
