@@ -22,11 +22,13 @@
 #include "kgd/v1/kgd.grpc.pb.h"
 #include "store/design_file.h"
 #include "tests/child_process.h"
+#include "tests/job_client.h"
 
 namespace kgd {
 namespace {
 namespace fs = std::filesystem;
 using test_support::FreePort;
+using test_support::JobClient;
 using test_support::Process;
 using test_support::WaitFor;
 using test_support::ReadText;
@@ -90,11 +92,7 @@ class Serve {
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     address_ = "127.0.0.1:" + std::to_string(FreePort());
-    grpc::ChannelArguments args;
-    args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 200);
-    args.SetMaxReceiveMessageSize(256 << 20);
-    channel_ = grpc::CreateCustomChannel(address_, grpc::InsecureChannelCredentials(), args);
-    stub_ = v1::DesignService::NewStub(channel_);
+    client_ = std::make_unique<JobClient>(address_, /*reconnect_backoff_ms=*/200);
   }
   ~Serve() {
     if (process_.pid > 0) Stop();
@@ -142,35 +140,20 @@ class Serve {
   }
 
   int64_t Create(const v1::JobSpec& spec, std::string* error) {
-    grpc::ClientContext ctx;
-    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-    v1::CreateJobRequest req;
-    *req.mutable_spec() = spec;
     v1::Job job;
-    const grpc::Status st = stub_->CreateJob(&ctx, req, &job);
+    const grpc::Status st = client_->Create(spec, &job);
     if (!st.ok()) *error = st.error_message();
     return st.ok() ? job.id() : 0;
   }
-  v1::Job Get(int64_t id) {
-    grpc::ClientContext ctx;
-    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
-    v1::GetJobRequest req;
-    req.set_id(id);
-    v1::Job job;
-    if (!stub_->GetJob(&ctx, req, &job).ok()) job.set_state(v1::JOB_STATE_UNSPECIFIED);
-    return job;
-  }
-  bool Finished(int64_t id) {
-    const v1::JobState s = Get(id).state();
-    return s == v1::SUCCEEDED || s == v1::FAILED || s == v1::CANCELLED;
-  }
+  v1::Job Get(int64_t id) { return client_->Get(id); }
+  bool Finished(int64_t id) { return client_->Finished(id); }
   // The job store's iterations (metrics and design), replayed by a watch of the ended job.
   std::vector<v1::IterationRecord> Stored(int64_t id, grpc::Status* status) {
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
     v1::WatchJobRequest req;
     req.set_id(id);
-    auto reader = stub_->WatchJob(&ctx, req);
+    auto reader = client_->stub().WatchJob(&ctx, req);
     std::vector<v1::IterationRecord> out;
     for (v1::WatchJobEvent ev; reader->Read(&ev);)
       if (ev.has_iteration()) out.push_back(ev.iteration());
@@ -191,8 +174,7 @@ class Serve {
   std::string dir_, cache_dir_, address_;
   Process process_;
   int status_ = 0, starts_ = 0;
-  std::shared_ptr<grpc::Channel> channel_;
-  std::unique_ptr<v1::DesignService::Stub> stub_;
+  std::unique_ptr<JobClient> client_;
 };
 
 struct Job {

@@ -19,6 +19,7 @@
 #include "store/design_file.h"
 #include "proto/connection.h"
 #include "tests/child_process.h"
+#include "tests/job_client.h"
 #include "tests/kgd_cli.h"
 
 namespace kgd {
@@ -27,6 +28,7 @@ namespace fs = std::filesystem;
 using cli_test::Kgd;
 
 using test_support::FreePort;
+using test_support::JobClient;
 using test_support::Process;
 using test_support::WaitFor;
 
@@ -39,12 +41,7 @@ class Service {
     fs::create_directories(dir_);
     address_ = "127.0.0.1:" + std::to_string(FreePort());
     StartServer();
-    grpc::ChannelArguments args;
-    args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 500);
-    args.SetMaxReceiveMessageSize(256 << 20);
-    args.SetMaxSendMessageSize(256 << 20);
-    channel_ = grpc::CreateCustomChannel(address_, grpc::InsecureChannelCredentials(), args);
-    stub_ = v1::DesignService::NewStub(channel_);
+    client_ = std::make_unique<JobClient>(address_);
   }
 
   void StartServer() {
@@ -81,35 +78,17 @@ class Service {
   const std::string& address() const { return address_; }
   const std::string& dir() const { return dir_; }
   std::string DataFile(int64_t id) const { return dir_ + "/data/jobs/job-" + std::to_string(id) + ".h5"; }
-  v1::DesignService::Stub& stub() { return *stub_; }
-
-  grpc::Status Create(const v1::JobSpec& spec, v1::Job* job) {
-    grpc::ClientContext ctx;
-    v1::CreateJobRequest req;
-    *req.mutable_spec() = spec;
-    return stub_->CreateJob(&ctx, req, job);
-  }
-  v1::Job Get(int64_t id) {
-    grpc::ClientContext ctx;
-    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
-    v1::GetJobRequest req;
-    req.set_id(id);
-    v1::Job job;
-    if (!stub_->GetJob(&ctx, req, &job).ok()) job.set_state(v1::JOB_STATE_UNSPECIFIED);
-    return job;
-  }
-  bool Finished(int64_t id) {
-    const v1::JobState s = Get(id).state();
-    return s == v1::SUCCEEDED || s == v1::FAILED || s == v1::CANCELLED;
-  }
+  v1::DesignService::Stub& stub() { return client_->stub(); }
+  grpc::Status Create(const v1::JobSpec& spec, v1::Job* job) { return client_->Create(spec, job); }
+  v1::Job Get(int64_t id) { return client_->Get(id); }
+  bool Finished(int64_t id) { return client_->Finished(id); }
 
  private:
   std::string dir_, address_;
   std::vector<std::string> flags_;
   Process server_;
   std::vector<Process> workers_;
-  std::shared_ptr<grpc::Channel> channel_;
-  std::unique_ptr<v1::DesignService::Stub> stub_;
+  std::unique_ptr<JobClient> client_;
 };
 
 v1::JobSpec Sleeve(int iterations, double budget = 0.15) {

@@ -25,6 +25,7 @@
 #include "kgd/v1/kgd.grpc.pb.h"
 #include "store/design_file.h"
 #include "tests/child_process.h"
+#include "tests/job_client.h"
 #include "tests/kgd_cli.h"
 
 namespace kgd {
@@ -32,6 +33,7 @@ namespace {
 namespace fs = std::filesystem;
 using cli_test::Kgd;
 using test_support::FreePort;
+using test_support::JobClient;
 using test_support::Process;
 using test_support::WaitFor;
 using test_support::ReadText;
@@ -107,8 +109,7 @@ class Service {
       args.push_back(a);
     server_ = Process::Spawn(args, dir_ + "/server.log");
     EXPECT_TRUE(WaitFor([&] { return Log().find("listening on") != std::string::npos; }, 30)) << Log();
-    channel_ = grpc::CreateChannel(address_, grpc::InsecureChannelCredentials());
-    stub_ = v1::DesignService::NewStub(channel_);
+    client_ = std::make_unique<JobClient>(address_);
   }
   ~Service() {
     workers_.clear();
@@ -147,34 +148,16 @@ class Service {
   const std::string& dir() const { return dir_; }
   std::string DataFile(int64_t id) const { return dir_ + "/data/jobs/job-" + std::to_string(id) + ".h5"; }
 
-  grpc::Status Create(const v1::JobSpec& spec, v1::Job* job) {
-    grpc::ClientContext ctx;
-    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-    v1::CreateJobRequest req;
-    *req.mutable_spec() = spec;
-    return stub_->CreateJob(&ctx, req, job);
-  }
-  v1::Job Get(int64_t id) {
-    grpc::ClientContext ctx;
-    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
-    v1::GetJobRequest req;
-    req.set_id(id);
-    v1::Job job;
-    if (!stub_->GetJob(&ctx, req, &job).ok()) job.set_state(v1::JOB_STATE_UNSPECIFIED);
-    return job;
-  }
-  bool Finished(int64_t id) {
-    const v1::JobState s = Get(id).state();
-    return s == v1::SUCCEEDED || s == v1::FAILED || s == v1::CANCELLED;
-  }
+  grpc::Status Create(const v1::JobSpec& spec, v1::Job* job) { return client_->Create(spec, job); }
+  v1::Job Get(int64_t id) { return client_->Get(id); }
+  bool Finished(int64_t id) { return client_->Finished(id); }
 
  private:
   std::string dir_, address_;
   std::vector<std::string> clock_;  // the command line's start that runs a program under the test's clock
   Process server_;
   std::vector<Process> workers_;
-  std::shared_ptr<grpc::Channel> channel_;
-  std::unique_ptr<v1::DesignService::Stub> stub_;
+  std::unique_ptr<JobClient> client_;
 };
 
 // A loopback TCP proxy to `target_port`: one thread polls the listening socket and every connection pair,
