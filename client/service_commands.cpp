@@ -100,6 +100,7 @@ nlohmann::ordered_json JobJson(const v1::Job& job) {
   j["scene"] = JobSceneName(job.spec());
   j["label"] = job.spec().label();
   j["state"] = StateName(job.state());
+  if (job.state() == v1::RUNNING && job.phase() != v1::JOB_PHASE_UNSPECIFIED) j["phase"] = v1::JobPhase_Name(job.phase());
   j["iterations"] = job.iterations();
   j["attempts"] = job.attempts();
   j["create_time_s"] = job.create_time_s();
@@ -132,7 +133,8 @@ int ExitForState(v1::JobState s) { return s == v1::SUCCEEDED ? 0 : s == v1::FAIL
 bool Terminal(v1::JobState s) { return s == v1::SUCCEEDED || s == v1::FAILED || s == v1::CANCELLED; }
 
 void PrintSummary(const v1::Job& job) {
-  std::printf("job %lld %s after %d iterations", static_cast<long long>(job.id()), StateName(job.state()).c_str(), job.iterations());
+  std::printf("job %lld %s%s after %d iterations", static_cast<long long>(job.id()), StateName(job.state()).c_str(),
+              job.state() == v1::RUNNING && job.phase() == v1::EVALUATING ? " (evaluating the final design)" : "", job.iterations());
   if (job.iterations() > 0)
     std::printf(": area %.1f%%, reinforced energy density %.4g J/m^2 = %.3f x fully reinforced", 100 * job.last().area_fraction(),
                 job.last().reinforced_density_j_per_m2(), job.last().density_ratio());
@@ -346,7 +348,9 @@ int RunJob(const std::string& server, int64_t id, bool json) {
     std::printf("%s\n", JobJson(job).dump().c_str());
     return 0;
   }
-  std::printf("job %lld: %s, scene %s%s%s\n", static_cast<long long>(job.id()), StateName(job.state()).c_str(), JobSceneName(job.spec()).c_str(),
+  std::printf("job %lld: %s%s, scene %s%s%s\n", static_cast<long long>(job.id()), StateName(job.state()).c_str(),
+              job.state() == v1::RUNNING && job.phase() == v1::EVALUATING ? " (evaluating the final design over the motion and beside Line and X)" : "",
+              JobSceneName(job.spec()).c_str(),
               job.spec().label().empty() ? "" : ", label ", job.spec().label().c_str());
   std::printf("attempts %d%s%s\n", job.attempts(), job.worker().empty() ? "" : ", worker ", job.worker().c_str());
   if (!job.paused().empty())
