@@ -16,6 +16,7 @@
 #include "core/mesh/topology.h"
 #include "core/scene/builtin_scenes.h"
 #include "core/scene/paper_scenes.h"
+#include "core/scene/paper_test_scene.h"
 #include "core/scene/scene_file.h"
 
 namespace kgd {
@@ -270,15 +271,7 @@ void ExpectPattern(const std::string& name, const TriMesh& garment, bool stepped
 // the motion cut short to that pose (the same garment bit for bit, without posing the body through
 // the motion's frames, which was most of the time of these tests).
 void ExpectSleeve(const std::string& name) {
-  Result<const ParametricBody*> body = DefaultParametricBody();
-  ASSERT_TRUE(body.ok()) << body.message();
-  const std::vector<PaperMotion> motions = PaperMotions();
-  auto motion = std::find_if(motions.begin(), motions.end(), [&](const PaperMotion& m) { return m.name == name; });
-  ASSERT_NE(motion, motions.end()) << name;
-  PaperMotion at_rest = *motion;
-  at_rest.pose = at_rest.rest;
-  at_rest.frames = 0;
-  Result<SceneSpec> s = PaperScene(**body, at_rest);
+  Result<SceneSpec> s = PaperSceneAtRest(name);
   ASSERT_TRUE(s.ok()) << s.message();
   ExpectPattern(name, s->garment);
 }

@@ -18,6 +18,7 @@
 #include "core/scene/scene_file.h"
 #include "core/scene/builtin_scenes.h"
 #include "core/scene/paper_scenes.h"
+#include "core/scene/paper_test_scene.h"
 
 namespace kgd {
 namespace {
@@ -50,16 +51,8 @@ Result<SceneSpec> MotionlessScene(SceneSpec s, bool moved) {
 // ones with their motion cut short to its rest pose, which is all MotionlessScene keeps of it: posing
 // the body through the motion's frames was most of this test's time.)
 TEST(Scene, AGarmentOnABodyAtRestStoresNothing) {
-  Result<const ParametricBody*> body = DefaultParametricBody();
-  ASSERT_TRUE(body.ok()) << body.message();
   for (const std::string name : {"arm_flexion", "knee_flexion", "slouch"}) {
-    const std::vector<PaperMotion> motions = PaperMotions();
-    auto motion = std::find_if(motions.begin(), motions.end(), [&](const PaperMotion& m) { return m.name == name; });
-    ASSERT_NE(motion, motions.end()) << name;
-    PaperMotion at_rest = *motion;
-    at_rest.pose = at_rest.rest;
-    at_rest.frames = 0;
-    Result<SceneSpec> builtin = PaperScene(**body, at_rest);
+    Result<SceneSpec> builtin = PaperSceneAtRest(name);
     ASSERT_TRUE(builtin.ok()) << builtin.message();
     for (const bool moved : {false, true}) {
       Result<SceneSpec> s = MotionlessScene(*builtin, moved);
