@@ -683,7 +683,7 @@ void AddDesignCommands(CLI::App& app, int* exit_code) {
       r = at.ok() ? ExportDesign(ex->file, ex->out, o) : Result<ExportReport>(at);
     } else {
       Result<SceneSpec> scene = ResolveScene(ex->file, ex->body);
-      r = scene.ok() ? ExportScene(*scene, ex->out, o) : Result<ExportReport>(scene.status());
+      r = scene.ok() ? ExportDesignOfScene(*scene, ex->out, o) : Result<ExportReport>(scene.status());
     }
     if (!r.ok()) {
       *exit_code = FailReading("export", r.message());

@@ -17,7 +17,7 @@ Status Check(const ExportOptions& o) {
   SceneSpec scene;
   scene.name = "one face";
   scene.garment.faces.setZero(1, 3);
-  return ExportScene(scene, testing::TempDir() + "/kgd_export_options", o).status();
+  return ExportDesignOfScene(scene, testing::TempDir() + "/kgd_export_options", o).status();
 }
 
 TEST(ExportOptions, NonFiniteOrAbsurdLengthsAreRefusedNamingTheValue) {

@@ -78,7 +78,7 @@ Result<ExportReport> ExportSceneDesign(SceneSpec scene, const Eigen::VectorXd& s
 
 }  // namespace
 
-Result<ExportReport> ExportScene(const SceneSpec& scene, const std::string& out_dir, const ExportOptions& o) {
+Result<ExportReport> ExportDesignOfScene(const SceneSpec& scene, const std::string& out_dir, const ExportOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   KGD_RETURN_IF_ERROR(CheckOptions(o));
   if (scene.design.size() != static_cast<size_t>(scene.garment.faces.rows())) return Status::Error("export: scene '" + scene.name + "' has no design");

@@ -62,7 +62,7 @@ Result<ExportReport> ExportDesign(const std::string& design_file, const std::str
 
 // The same for a scene's own design (a scene file's, or a built-in scene's such as pull_test_line):
 // its density ratio against the same garment fully reinforced. `iteration` in the report is -1.
-Result<ExportReport> ExportScene(const SceneSpec& scene, const std::string& out_dir, const ExportOptions& options);
+Result<ExportReport> ExportDesignOfScene(const SceneSpec& scene, const std::string& out_dir, const ExportOptions& options);
 
 // A design cleaned for manufacture and simulated again, as every export does: `scene.design` cleaned
 // (CleanDesign with `cleaning`; attachments and clamp strips kept as they are) and solved from

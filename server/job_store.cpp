@@ -135,7 +135,6 @@ class Stmt {
   }
   int64_t Int(int c) const { return sqlite3_column_int64(s_, c); }
   double Real(int c) const { return sqlite3_column_double(s_, c); }
-  bool Null(int c) const { return sqlite3_column_type(s_, c) == SQLITE_NULL; }
   std::string Text(int c) const {
     const void* p = sqlite3_column_blob(s_, c);
     return p ? std::string(static_cast<const char*>(p), sqlite3_column_bytes(s_, c)) : std::string();
