@@ -20,7 +20,7 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "core/fabrication/pattern.h"
+#include "core/fabrication/pattern_piece.h"
 
 namespace kgd {
 

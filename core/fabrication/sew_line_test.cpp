@@ -2,6 +2,8 @@
 // ends kept; the two sides of a seam brought to one length; the turning measure itself.
 #include "core/fabrication/sew_line.h"
 
+#include "core/fabrication/pattern.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
