@@ -16,8 +16,8 @@
 #include "core/scene/scene_file.h"
 #include "core/scene/builtin_scenes.h"
 #include "core/scene/paper_scenes.h"
-#include "core/scene/bodies_test_scene.h"
-#include "core/scene/motion_test_scene.h"
+#include "core/testing/bodies_test_scene.h"
+#include "core/testing/motion_test_scene.h"
 #include "core/scene/scene_keys.h"
 #include <google/protobuf/struct.pb.h>
 

@@ -19,14 +19,14 @@
 
 #include "core/beso/design_constraints.h"
 #include "core/mesh/mesh_io.h"
-#include "core/mesh/self_intersection.h"
+#include "core/testing/self_intersection.h"
 #include "core/mesh/topology.h"
 #include "core/scene/paper_scenes.h"
 #include "core/scene/scene.h"
 #include "core/scene/simulate.h"
 #include "core/scene/scene_cache.h"
 #include "core/scene/builtin_scenes.h"
-#include "core/scene/motion_test_scene.h"
+#include "core/testing/motion_test_scene.h"
 #include "core/scene/scene_file.h"
 #include "core/util/pinned_kernels.h"
 

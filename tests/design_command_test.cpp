@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "core/scene/bodies_test_scene.h"
+#include "core/testing/bodies_test_scene.h"
 #include "core/scene/scene_file.h"
 #include "store/design_file.h"
 

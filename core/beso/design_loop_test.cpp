@@ -1,7 +1,7 @@
 // The BESO loop on the pull test: every design meets its target area, every simulation converges,
 // the reinforced energy density rises as material goes, and the run is deterministic.
 #include "core/beso/design_loop.h"
-#include "core/scene/bodies_test_scene.h"
+#include "core/testing/bodies_test_scene.h"
 #include "core/scene/builtin_scenes.h"
 #include "core/scene/simulate.h"
 #include "core/scene/shapes.h"

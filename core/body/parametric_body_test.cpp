@@ -9,7 +9,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "core/mesh/self_intersection.h"
+#include "core/testing/self_intersection.h"
 #include "core/mesh/topology.h"
 
 namespace kgd {

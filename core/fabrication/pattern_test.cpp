@@ -16,7 +16,7 @@
 #include "core/mesh/topology.h"
 #include "core/scene/builtin_scenes.h"
 #include "core/scene/paper_scenes.h"
-#include "core/scene/paper_test_scene.h"
+#include "core/testing/paper_test_scene.h"
 #include "core/scene/scene_file.h"
 
 namespace kgd {

@@ -5,7 +5,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
-#include "core/mesh/self_intersection.h"
+#include "core/testing/self_intersection.h"
 #include "core/mesh/topology.h"
 
 namespace kgd {

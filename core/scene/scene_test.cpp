@@ -12,13 +12,13 @@
 
 #include "core/beso/design_loop.h"
 #include "core/mesh/mesh_io.h"
-#include "core/scene/bodies_test_scene.h"
-#include "core/scene/motion_test_scene.h"
+#include "core/testing/bodies_test_scene.h"
+#include "core/testing/motion_test_scene.h"
 #include "core/scene/simulate.h"
 #include "core/scene/scene_file.h"
 #include "core/scene/builtin_scenes.h"
 #include "core/scene/paper_scenes.h"
-#include "core/scene/paper_test_scene.h"
+#include "core/testing/paper_test_scene.h"
 
 namespace kgd {
 namespace {

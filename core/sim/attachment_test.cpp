@@ -6,10 +6,10 @@
 
 #include <random>
 
-#include "core/sim/finite_difference_check.h"
+#include "core/testing/finite_difference_check.h"
 #include "core/sim/membrane.h"
 #include "core/sim/garment_system.h"
-#include "core/sim/term_test_support.h"
+#include "core/testing/term_test_support.h"
 
 namespace kgd {
 namespace {

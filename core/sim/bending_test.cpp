@@ -15,7 +15,7 @@
 #include "core/scene/builtin_scenes.h"
 #include "core/sim/garment_system.h"
 #include "core/scene/shapes.h"
-#include "core/sim/finite_difference_check.h"
+#include "core/testing/finite_difference_check.h"
 
 namespace kgd {
 namespace {

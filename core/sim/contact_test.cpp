@@ -5,7 +5,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "core/scene/shapes.h"
-#include "core/sim/finite_difference_check.h"
+#include "core/testing/finite_difference_check.h"
 
 namespace kgd {
 namespace {

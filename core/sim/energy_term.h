@@ -7,7 +7,7 @@
 //
 // A new term is its own files (the element's energy and derivatives, a class deriving from EnergyTerm,
 // a factory that returns nullptr when the scene's effects leave it off, a finite-difference test with
-// core/sim/finite_difference_check.h) plus one line in the term list (term_list.h) and its proto
+// core/testing/finite_difference_check.h) plus one line in the term list (term_list.h) and its proto
 // fields. What else the system needs of a particular term (a safe step, a lagged pass, per-face
 // densities, a projection of line-search trials) is an optional hook below; the system knows no term.
 #pragma once

@@ -6,9 +6,9 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
-#include "core/sim/finite_difference_check.h"
+#include "core/testing/finite_difference_check.h"
 #include "core/sim/garment_system.h"
-#include "core/sim/term_test_support.h"
+#include "core/testing/term_test_support.h"
 
 namespace kgd {
 namespace {

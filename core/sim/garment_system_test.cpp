@@ -16,7 +16,7 @@
 #include "core/scene/builtin_scenes.h"
 #include "core/sim/attachment.h"
 #include "core/sim/contact.h"
-#include "core/sim/finite_difference_check.h"
+#include "core/testing/finite_difference_check.h"
 #include "core/sim/fold_barrier.h"
 #include "core/sim/membrane.h"
 #include "core/sim/simulator.h"

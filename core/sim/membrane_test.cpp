@@ -4,7 +4,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <random>
-#include "core/sim/finite_difference_check.h"
+#include "core/testing/finite_difference_check.h"
 
 namespace kgd {
 namespace {

@@ -7,7 +7,7 @@
 #include <tuple>
 #include <vector>
 
-#include "core/scene/motion_test_scene.h"
+#include "core/testing/motion_test_scene.h"
 #include "core/scene/scene.h"
 #include "core/scene/shapes.h"
 

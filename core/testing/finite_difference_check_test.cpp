@@ -1,7 +1,7 @@
 // The shared finite-difference check catches what it is for: a wrong gradient, a wrong or asymmetric
 // Hessian, and a projection that is not PSD, removes stiffness, changes a PSD Hessian (one with zero
 // modes, as every element's has) or changes more than the negative curvature.
-#include "core/sim/finite_difference_check.h"
+#include "core/testing/finite_difference_check.h"
 
 #include <gtest/gtest.h>
 

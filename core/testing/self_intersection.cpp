@@ -1,4 +1,4 @@
-#include "core/mesh/self_intersection.h"
+#include "core/testing/self_intersection.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
