@@ -132,9 +132,12 @@ int ExitForState(v1::JobState s) { return s == v1::SUCCEEDED ? 0 : s == v1::FAIL
 
 bool Terminal(v1::JobState s) { return s == v1::SUCCEEDED || s == v1::FAILED || s == v1::CANCELLED; }
 
+// A running job past its last iteration: its final design simulated over the motion and beside Line and X.
+bool Evaluating(const v1::Job& job) { return job.state() == v1::RUNNING && job.phase() == v1::EVALUATING; }
+
 void PrintSummary(const v1::Job& job) {
   std::printf("job %lld %s%s after %d iterations", static_cast<long long>(job.id()), StateName(job.state()).c_str(),
-              job.state() == v1::RUNNING && job.phase() == v1::EVALUATING ? " (evaluating the final design)" : "", job.iterations());
+              Evaluating(job) ? " (evaluating the final design)" : "", job.iterations());
   if (job.iterations() > 0)
     std::printf(": area %.1f%%, reinforced energy density %.4g J/m^2 = %.3f x fully reinforced", 100 * job.last().area_fraction(),
                 job.last().reinforced_density_j_per_m2(), job.last().density_ratio());
@@ -349,7 +352,7 @@ int RunJob(const std::string& server, int64_t id, bool json) {
     return 0;
   }
   std::printf("job %lld: %s%s, scene %s%s%s\n", static_cast<long long>(job.id()), StateName(job.state()).c_str(),
-              job.state() == v1::RUNNING && job.phase() == v1::EVALUATING ? " (evaluating the final design over the motion and beside Line and X)" : "",
+              Evaluating(job) ? " (evaluating the final design over the motion and beside Line and X)" : "",
               JobSceneName(job.spec()).c_str(),
               job.spec().label().empty() ? "" : ", label ", job.spec().label().c_str());
   std::printf("attempts %d%s%s\n", job.attempts(), job.worker().empty() ? "" : ", worker ", job.worker().c_str());

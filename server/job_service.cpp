@@ -606,14 +606,10 @@ Result<std::unique_ptr<JobService>> JobService::Open(const JobServiceOptions& op
   // One server per data folder: a second one would release the first's leases as a restart does, and
   // the first's running jobs would fail on their design files.
   const std::string lock_path = (fs::path(options.data_dir) / "kgd.lock").string();
-  Result<FileLock> lock = FileLock::Acquire(lock_path, /*create=*/true);
-  if (!lock.ok()) {
-    if (lock.message().find("another writer") == std::string::npos) return lock.status();
-    const std::string holder = FileLockHolder(lock_path);
-    return Status::Error("--data " + options.data_dir + ": another server uses this data folder (" +
-                         (holder.empty() ? std::string("a process this one cannot see") : holder) +
-                         "); stop it, or give this one another --data");
-  }
+  Result<FileLock> lock = FileLock::Acquire(lock_path, /*create=*/true, [&](const std::string& holder) {
+    return "--data " + options.data_dir + ": another server uses this data folder (" + holder + "); stop it, or give this one another --data";
+  });
+  if (!lock.ok()) return lock.status();
   m.folder_lock = std::move(lock).value();
   Result<std::unique_ptr<JobStore>> store = JobStore::Open((fs::path(options.data_dir) / "kgd.sqlite").string());
   if (!store.ok()) return store.status();

@@ -31,16 +31,17 @@ void FileLock::Release() {
   fd_ = -1;
 }
 
-Result<FileLock> FileLock::Acquire(const std::string& path, bool create) {
+Result<FileLock> FileLock::Acquire(const std::string& path, bool create, const std::function<std::string(const std::string& holder)>& when_held) {
   const int fd = create ? ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0666) : ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return Status::Error(path + ": cannot open to lock it: " + std::strerror(errno));
   if (::flock(fd, LOCK_EX | LOCK_NB) == 0) return FileLock(fd);
   const int error = errno;
   ::close(fd);
   if (error != EWOULDBLOCK) return Status::Error(path + ": cannot lock it: " + std::strerror(error));
-  const std::string holder = FileLockHolder(path);
-  return Status::Error(path + ": another writer has it open (" + (holder.empty() ? std::string("a process this one cannot see") : holder) +
-                       "); one writer per design file");
+  std::string holder = FileLockHolder(path);
+  if (holder.empty()) holder = "a process this one cannot see";
+  if (when_held) return Status::Error(when_held(holder));
+  return Status::Error(path + ": another writer has it open (" + holder + "); one writer per design file");
 }
 
 std::string FileLockHolder(const std::string& path) {

@@ -7,6 +7,7 @@
 // too: the kernel drops it), and is not inherited across exec.
 #pragma once
 
+#include <functional>
 #include <string>
 
 #include "core/util/status.h"
@@ -24,8 +25,11 @@ class FileLock {
 
   // Takes the exclusive lock on the file `path` without waiting (`create`: an empty file is made when
   // there is none; an existing one is left as it is). Held by another writer: an error naming the file
-  // and the holder ("process 1234: kgd design knee_flexion --out same.h5"), where the system tells it.
-  static Result<FileLock> Acquire(const std::string& path, bool create = false);
+  // and the holder ("process 1234: kgd design knee_flexion --out same.h5"), where the system tells it;
+  // `when_held`, if given, words that error from the holder ("a process this one cannot see" when the
+  // system does not tell).
+  static Result<FileLock> Acquire(const std::string& path, bool create = false,
+                                  const std::function<std::string(const std::string& holder)>& when_held = {});
 
   bool held() const { return fd_ >= 0; }
   void Release();
